@@ -1,0 +1,1 @@
+"""Controllers for UUOM-Track: stable-baselines3 agents and reference controllers."""

@@ -1,0 +1,157 @@
+"""The interface every online mass/slope estimator implements.
+
+One :meth:`Estimator.update` per sensor sample (200 Hz in the environment, whatever the trace has offline) returns
+an :class:`Estimate`. Missing sensor values are passed as ``NaN``; an estimator must then predict without
+correcting, never propagate the NaN. :meth:`Estimator.run` applies the same per-sample loop to a whole
+:class:`~uuom_gym.trace.Trace`, so offline results are exactly what the environment would see.
+
+Accelerometer convention (spec §4): ``accel_mps2`` is the *specific force* along the track,
+``f = dv/dt + g sin(slope)``, as a body-fixed accelerometer measures it. Each estimator says in its docstring how
+it uses it.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from uuom_gym.trace import Trace
+from uuom_gym.vehicle import DEFAULT_VEHICLE, VehicleParams
+
+
+@dataclass(frozen=True, slots=True)
+class Estimate:
+    """One estimate. Standard deviations are 1-sigma, finite and >= 0.
+
+    ``extras`` holds what a method gives beyond mass and slope (``mu``, ``slip_ratio``, ``drive_radius_m``, their
+    ``*_std``), always finite floats.
+    """
+
+    mass_kg: float
+    slope_rad: float
+    mass_std_kg: float
+    slope_std_rad: float
+    extras: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def slope_deg(self) -> float:
+        return math.degrees(self.slope_rad)
+
+    @property
+    def slope_std_deg(self) -> float:
+        return math.degrees(self.slope_std_rad)
+
+
+@dataclass
+class EstimateSeries:
+    """The estimates of a whole trace, one row per sample (what :meth:`Estimator.run` returns)."""
+
+    t_s: np.ndarray
+    mass_kg: np.ndarray
+    slope_rad: np.ndarray
+    mass_std_kg: np.ndarray
+    slope_std_rad: np.ndarray
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def slope_deg(self) -> np.ndarray:
+        return np.degrees(self.slope_rad)
+
+    @property
+    def slope_std_deg(self) -> np.ndarray:
+        return np.degrees(self.slope_std_rad)
+
+
+class Estimator(ABC):
+    """Base class of the online estimators.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams, optional
+        Parameters the estimator's model is built from (radius, rotating mass, nominal running resistance, mass
+        range). Defaults to the spec's default vehicle.
+    **options
+        Method-specific tuning, documented by each subclass. Unknown options raise ``TypeError``.
+
+    Attributes
+    ----------
+    name : str
+        Registry name (class attribute).
+    provides : frozenset of str
+        What the method estimates itself: a subset of ``{"mass", "slope", "mu", "slip", "radius"}``. For a quantity
+        it does not estimate, it reports its prior (e.g. mid-range mass) with a large standard deviation.
+    """
+
+    name: ClassVar[str] = "base"
+    provides: ClassVar[frozenset[str]] = frozenset()
+
+    def __init__(self, vehicle: VehicleParams | None = None, **options: Any) -> None:
+        if options:
+            raise TypeError(f"{type(self).__name__}: unknown option(s): {', '.join(sorted(options))}")
+        self.vehicle = vehicle if vehicle is not None else DEFAULT_VEHICLE
+
+    @abstractmethod
+    def reset(self) -> None:
+        """Forget everything learned; return to the prior."""
+
+    @abstractmethod
+    def update(
+        self,
+        torque_nm: float,
+        speed_mps: float,
+        accel_mps2: float,
+        dt_s: float,
+        motor_speed_radps: float = math.nan,
+        gyro_radps: float = math.nan,
+        accel_normal_mps2: float = math.nan,
+    ) -> Estimate:
+        """Process one sensor sample (any value may be NaN = missing) and return the current estimate."""
+
+    @property
+    @abstractmethod
+    def estimate(self) -> Estimate:
+        """The current estimate without processing a sample."""
+
+    def run(self, trace: Trace, reset: bool = True) -> EstimateSeries:
+        """Run the estimator over a whole trace, sample by sample, exactly as online."""
+        if reset:
+            self.reset()
+        n = len(trace)
+        t = trace["t_s"]
+        nan = np.full(n, np.nan)
+        torque, speed, accel = trace["torque_nm"], trace["speed_mps"], trace["accel_mps2"]
+        motor = trace.get("motor_speed_radps")
+        gyro = trace.get("gyro_radps")
+        acc_n = trace.get("accel_normal_mps2")
+        motor = nan if motor is None else motor
+        gyro = nan if gyro is None else gyro
+        acc_n = nan if acc_n is None else acc_n
+        dts = np.diff(t, prepend=t[0] - (t[1] - t[0] if n > 1 else 0.005))
+        out_m = np.empty(n)
+        out_s = np.empty(n)
+        out_ms = np.empty(n)
+        out_ss = np.empty(n)
+        extras: dict[str, np.ndarray] = {}
+        update = self.update
+        for i in range(n):
+            e = update(
+                float(torque[i]), float(speed[i]), float(accel[i]), float(dts[i]),
+                float(motor[i]), float(gyro[i]), float(acc_n[i]),
+            )
+            out_m[i] = e.mass_kg
+            out_s[i] = e.slope_rad
+            out_ms[i] = e.mass_std_kg
+            out_ss[i] = e.slope_std_rad
+            for k, v in e.extras.items():
+                arr = extras.get(k)
+                if arr is None:
+                    arr = extras[k] = np.full(n, np.nan)
+                arr[i] = v
+        return EstimateSeries(t.copy(), out_m, out_s, out_ms, out_ss, extras)
+
+
+__all__ = ["Estimate", "EstimateSeries", "Estimator"]

@@ -1,0 +1,68 @@
+"""Estimators by name, so the environment, ``uuom-estimate`` and the benchmarks pick them by string.
+
+Entries are ``"module:Class"`` strings imported on first use, so importing :mod:`estimators` stays cheap and one
+broken method cannot stop the others from loading.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from uuom_gym.vehicle import VehicleParams
+
+from .base import Estimator
+
+_REGISTRY: dict[str, str] = {
+    # paper 000 (Liu et al. 2023) and its baselines, spec §5.1-5.5
+    "rls": "estimators.rls:RLSMassEstimator",
+    "ffrls": "estimators.rls:FFRLSMassEstimator",
+    "dffrls": "estimators.rls:DFFRLSMassEstimator",
+    "ekf": "estimators.ekf:JointEKF",
+    "rls-ekf": "estimators.two_layer:RLSEKF",
+    "dffrls-aekf": "estimators.two_layer:DFFRLSAEKF",
+    # other source methods, spec §5.6-5.8
+    "mmae": "estimators.mmae:MMAEEstimator",
+    "imu-ukf": "estimators.imu.estimator:IMUUKFEstimator",
+    "aupf": "estimators.aupf:AUPFEstimator",
+}
+
+
+class UnknownEstimatorError(KeyError):
+    """An estimator name that is not registered."""
+
+    def __str__(self) -> str:  # KeyError quotes its argument; keep the message readable
+        return str(self.args[0])
+
+
+def register(name: str, target: str, *, overwrite: bool = False) -> None:
+    """Register ``target`` (``"package.module:Class"``) under ``name``."""
+    if name in _REGISTRY and not overwrite:
+        raise ValueError(f"estimator {name!r} is already registered")
+    _REGISTRY[name] = target
+
+
+def available() -> list[str]:
+    """Names of all registered estimators, sorted."""
+    return sorted(_REGISTRY)
+
+
+def get_class(name: str) -> type[Estimator]:
+    """The estimator class registered under ``name``."""
+    try:
+        target = _REGISTRY[name]
+    except KeyError:
+        raise UnknownEstimatorError(
+            f"unknown estimator {name!r}; available: {', '.join(available())}"
+        ) from None
+    module_name, _, class_name = target.partition(":")
+    module = importlib.import_module(module_name)
+    return getattr(module, class_name)
+
+
+def make(name: str, vehicle: VehicleParams | None = None, **options: Any) -> Estimator:
+    """Construct the estimator registered under ``name``."""
+    return get_class(name)(vehicle, **options)
+
+
+__all__ = ["UnknownEstimatorError", "available", "get_class", "make", "register"]

@@ -1,0 +1,203 @@
+"""Vehicle parameters of the monorail: one typed place, loadable from the TOML vehicle file.
+
+The defaults are the test vehicle DX80/176Y of Liu et al. 2023 (spec ``model.md`` §1), with the gaps the paper
+leaves filled as the spec marks them (empty mass 16 t, running resistance 0.02, clamping force).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+G_MPS2 = 9.81
+"""Gravitational acceleration used everywhere in the project (plant, estimators, safety rules)."""
+
+
+class VehicleFileError(ValueError):
+    """A vehicle TOML file (or keyword set) that cannot describe a real vehicle."""
+
+
+@dataclass(frozen=True)
+class VehicleParams:
+    """Physical parameters of an overhead monorail train.
+
+    The first seven fields are the keys of the ``[vehicle]`` table of the trace-format vehicle file
+    (``shared/spec/trace-format.md``); the others describe the plant and the safety envelope and may be given in
+    the same table.
+
+    Attributes
+    ----------
+    empty_mass_kg : float
+        Train mass without load (assumed 16 t; not in the paper).
+    rated_load_kg : float
+        Rated payload (20 t, Table 3).
+    drive_wheel_radius_m : float
+        Nominal (unworn) friction drive wheel radius (340 mm diameter).
+    carrying_wheel_radius_m : float
+        Carrying (walking) wheel radius (175 mm diameter).
+    wheel_inertia_kgm2 : float
+        Moment of inertia of one wheel set counted in the rotating-mass term.
+    inertia_wheel_count : int
+        Number of wheel sets in the rotating-mass term: ``m_rot = count * J / r_carry**2``.
+    running_resistance : float
+        Running-resistance coefficient mu (nominal; the env randomises the plant's true value).
+    drive_unit_count : int
+        Number of friction drive units.
+    max_traction_n : float
+        Maximum traction force of all drive units together (80 kN).
+    motor_power_w : float
+        Total traction motor power (60 kW): above ``P / v`` the traction force falls off.
+    service_brake_n, emergency_brake_n : float
+        Guaranteed (service) and emergency brake force of the brake cars (120 / 160 kN).
+    clamp_force_n : float
+        Total normal force with which all drive wheels are clamped to the rail web.
+    adhesion_dry, adhesion_wet : float
+        Drive wheel / rail adhesion coefficient on dry and on wet, greasy rail.
+    max_speed_empty_mps, max_speed_rated_mps : float
+        Load-dependent speed limit at empty and at rated load (2.0 / 0.5 m/s, Table 3).
+    max_grade_deg : float
+        Steepest grade the vehicle is specified for (15 deg).
+    length_m : float
+        Train length (18.1 m).
+    """
+
+    empty_mass_kg: float = 16_000.0
+    rated_load_kg: float = 20_000.0
+    drive_wheel_radius_m: float = 0.17
+    carrying_wheel_radius_m: float = 0.0875
+    wheel_inertia_kgm2: float = 2.0
+    inertia_wheel_count: int = 4
+    running_resistance: float = 0.02
+    drive_unit_count: int = 8
+    max_traction_n: float = 80_000.0
+    motor_power_w: float = 60_000.0
+    service_brake_n: float = 120_000.0
+    emergency_brake_n: float = 160_000.0
+    clamp_force_n: float = 260_000.0
+    adhesion_dry: float = 0.35
+    adhesion_wet: float = 0.18
+    max_speed_empty_mps: float = 2.0
+    max_speed_rated_mps: float = 0.5
+    max_grade_deg: float = 15.0
+    length_m: float = 18.1
+
+    def __post_init__(self) -> None:
+        problems = _validate(self)
+        if problems:
+            raise VehicleFileError("invalid vehicle parameters: " + "; ".join(problems))
+
+    # Derived quantities ------------------------------------------------------------------------------------
+    @property
+    def rotating_mass_kg(self) -> float:
+        """Rotating-mass equivalent ``m_rot = n_w J / r_carry**2`` (paper 000 eq. 6, J in kg m^2)."""
+        return self.inertia_wheel_count * self.wheel_inertia_kgm2 / self.carrying_wheel_radius_m**2
+
+    @property
+    def max_mass_kg(self) -> float:
+        """Heaviest physically meaningful total mass: empty + 1.2 x rated load (estimator clamp)."""
+        return self.empty_mass_kg + 1.2 * self.rated_load_kg
+
+    @property
+    def rated_mass_kg(self) -> float:
+        """Total mass at rated load."""
+        return self.empty_mass_kg + self.rated_load_kg
+
+    def with_changes(self, **changes: Any) -> "VehicleParams":
+        """Return a copy with some fields replaced (validated like the constructor)."""
+        unknown = sorted(set(changes) - {f.name for f in dataclasses.fields(self)})
+        if unknown:
+            raise VehicleFileError(f"unknown vehicle parameter(s): {', '.join(unknown)}")
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> "VehicleParams":
+        """Load a vehicle file (``[vehicle]`` table). Missing keys take the defaults; unknown keys are errors."""
+        path = Path(path)
+        try:
+            with path.open("rb") as fh:
+                data = tomllib.load(fh)
+        except FileNotFoundError:
+            raise VehicleFileError(f"{path}: no such vehicle file") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise VehicleFileError(f"{path}: not valid TOML: {exc}") from None
+        extra_tables = sorted(set(data) - {"vehicle"})
+        if extra_tables:
+            raise VehicleFileError(f"{path}: unknown table/key(s) {', '.join(extra_tables)} (expected [vehicle])")
+        table = data.get("vehicle", {})
+        if not isinstance(table, dict):
+            raise VehicleFileError(f"{path}: 'vehicle' must be a table")
+        names = {f.name: f for f in dataclasses.fields(cls)}
+        unknown = sorted(set(table) - set(names))
+        if unknown:
+            raise VehicleFileError(f"{path}: unknown key(s) in [vehicle]: {', '.join(unknown)}")
+        kwargs: dict[str, Any] = {}
+        for key, value in table.items():
+            want_int = names[key].type in ("int", int)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise VehicleFileError(f"{path}: key '{key}' must be a number, got {value!r}")
+            if want_int and (not float(value).is_integer()):
+                raise VehicleFileError(f"{path}: key '{key}' must be a whole number, got {value!r}")
+            kwargs[key] = int(value) if want_int else float(value)
+        try:
+            return cls(**kwargs)
+        except VehicleFileError as exc:
+            raise VehicleFileError(f"{path}: {exc}") from None
+
+
+_POSITIVE = (
+    "empty_mass_kg",
+    "drive_wheel_radius_m",
+    "carrying_wheel_radius_m",
+    "inertia_wheel_count",
+    "drive_unit_count",
+    "max_traction_n",
+    "motor_power_w",
+    "service_brake_n",
+    "emergency_brake_n",
+    "clamp_force_n",
+    "adhesion_dry",
+    "adhesion_wet",
+    "max_speed_empty_mps",
+    "max_speed_rated_mps",
+    "max_grade_deg",
+    "length_m",
+)
+_NON_NEGATIVE = ("rated_load_kg", "wheel_inertia_kgm2", "running_resistance")
+
+
+def _validate(p: VehicleParams) -> list[str]:
+    problems: list[str] = []
+    for name in _POSITIVE + _NON_NEGATIVE:
+        value = getattr(p, name)
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+            problems.append(f"{name} must be a finite number, got {value!r}")
+        elif name in _POSITIVE and value <= 0:
+            problems.append(f"{name} must be > 0, got {value!r}")
+        elif value < 0:
+            problems.append(f"{name} must be >= 0, got {value!r}")
+    if problems:
+        return problems
+    if p.running_resistance >= 1.0:
+        problems.append(f"running_resistance must be < 1, got {p.running_resistance!r}")
+    if p.adhesion_wet > p.adhesion_dry:
+        problems.append("adhesion_wet must not exceed adhesion_dry")
+    if p.max_speed_rated_mps > p.max_speed_empty_mps:
+        problems.append("max_speed_rated_mps must not exceed max_speed_empty_mps")
+    if p.max_grade_deg >= 45.0:
+        problems.append(f"max_grade_deg must be < 45, got {p.max_grade_deg!r}")
+    if p.emergency_brake_n < p.service_brake_n:
+        problems.append("emergency_brake_n must be >= service_brake_n")
+    return problems
+
+
+DEFAULT_VEHICLE = VehicleParams()
+"""The spec's default vehicle (DX80/176Y with the documented assumptions)."""
+
+__all__ = ["G_MPS2", "DEFAULT_VEHICLE", "VehicleFileError", "VehicleParams"]

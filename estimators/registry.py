@@ -21,6 +21,8 @@ _REGISTRY: dict[str, str] = {
     "ekf": "estimators.ekf:JointEKF",
     "rls-ekf": "estimators.two_layer:RLSEKF",
     "dffrls-aekf": "estimators.two_layer:DFFRLSAEKF",
+    # improvement on paper 000: uses the accelerometer's specific force (issue 3)
+    "sf-kf": "estimators.specific_force:SpecificForceKF",
     # other source methods, spec §5.6-5.8
     "mmae": "estimators.mmae:MMAEEstimator",
     "imu-ukf": "estimators.imu.estimator:IMUUKFEstimator",

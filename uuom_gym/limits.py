@@ -99,6 +99,29 @@ def max_climbable_grade_rad(
     return math.asin(ratio / amp) - math.atan(mu)
 
 
+def speed_limit_mps_array(
+    vehicle: VehicleParams,
+    mass_kg: float,
+    slope_rad: "np.ndarray",
+    stop_distance_m: float = STOP_DISTANCE_M,
+    brake_delay_s: float = BRAKE_DELAY_S,
+) -> "np.ndarray":
+    """:func:`speed_limit_mps` for one mass and an array of slopes (vectorised; same formula, same result).
+
+    Added for the environment, which evaluates the limit at every physics tick of a policy step.
+    """
+    import numpy as np
+
+    slope = np.asarray(slope_rad, dtype=float)
+    mu = vehicle.running_resistance
+    force = vehicle.service_brake_n + mass_kg * G_MPS2 * (np.sin(slope) + mu * np.cos(slope))
+    a = force / (mass_kg + vehicle.rotating_mass_kg)
+    b = brake_delay_s
+    a_pos = np.maximum(a, 1e-300)
+    v_stop = np.where(a > 0.0, (-b + np.sqrt(b * b + 2.0 * stop_distance_m / a_pos)) * a_pos, 0.0)
+    return np.minimum(load_speed_limit_mps(vehicle, mass_kg), v_stop)
+
+
 __all__ = [
     "BRAKE_DELAY_S",
     "STOP_DISTANCE_M",
@@ -107,5 +130,6 @@ __all__ = [
     "max_climbable_grade_rad",
     "max_traction_force_n",
     "speed_limit_mps",
+    "speed_limit_mps_array",
     "stopping_speed_limit_mps",
 ]

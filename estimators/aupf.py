@@ -1,0 +1,495 @@
+"""Adaptive unscented particle filter (AUPF) for drive slip and effective drive-wheel radius (paper 004, spec §5.8).
+
+Paper 004 estimates the track slip ratio and the effective drive-wheel radius of a deep-sea crawler with a particle
+filter whose importance density comes from an adaptive UKF (AUKF) run per particle, resampling on the effective
+sample size. This module transfers the method to the monorail's friction drive.
+
+Quantities
+----------
+* Slip ratio (traction): ``i = (omega r - v) / (omega r)`` while ``omega r >= v``; in a skid ``i = (omega r - v) / v``
+  (negative). ``omega`` is the drive-wheel angular speed (``motor_speed_radps / gear_ratio``), ``v`` the ground speed
+  (encoder on a non-driven carrying wheel), ``r`` the effective drive-wheel radius (nominal minus wear).
+* Measurement: ``v = omega r (1 - i)`` (``omega r / (1 + i)`` for ``i < 0``); its noise variance ``R`` mixes the two
+  encoders' noise and quantisation and is adapted online per particle (Sage-Husa, fading factor ``b``): the
+  "adaptive" of the AUKF.
+
+Model of the slip (what the particles sample)
+---------------------------------------------
+Each particle carries a slip ratio ``i``, an adhesion regime ``s`` (0: adhering, 1: macro-slip), and a Gaussian
+belief ``N(rho, Sigma)`` of the radius.
+
+* Adhering: ``i`` relaxes with time constant ``slip_time_constant_s`` to the creep curve of the friction drive,
+  ``i* = -i_c ln(1 - u / mu_a)``, ``u = |T| / (r N_clamp)`` (the saturating shear law paper 004 uses for the track,
+  eq. 1; ``mu_a`` the dry adhesion), with small process noise (``slip_process_std``).
+* Macro-slip: ``i`` is a fast random walk (``macro_slip_process_std``), bounded by ``max_slip``.
+* Regime switches are a Markov chain: adhering -> slipping at rate ``slip_onset_rate_hz`` times a logistic
+  function of how far ``u`` is above ``0.8 x`` the wet-rail adhesion (slip needs traction beyond the adhesion), plus
+  ``spontaneous_slip_rate_hz``; slipping -> adhering at ``slip_recovery_rate_hz``.
+* Radius: a slow random walk (``radius_process_std_m_per_sqrt_s``). Given a particle's slip, the measurement is
+  *linear* in ``r``, so the radius is not sampled but Kalman-filtered exactly per particle (Rao-Blackwellised). A
+  sampled radius, updated from the sample, diffused by the proposal's spread on every sample (measured: the
+  radius wandered by +-4 mm and followed the slip), which is why it is marginalised.
+
+One step, all particles at once (numpy)
+---------------------------------------
+1. Draw each particle's regime from the Markov chain.
+2. AUKF per particle on ``[i, r]`` from ``([i_j, rho_j], diag(0, Sigma_j))``: unscented prediction through the
+   regime's slip model plus process noise, unscented update with the measured ``v`` (sigma-point weights with
+   ``lambda = n (alpha^2 - 1)``, ``beta = 2``, paper 004 eq. 15), adaptation of ``R_j``. Its slip marginal
+   ``N(ihat_j, Phat_j)`` is the importance density.
+3. Draw ``i_j ~ N(ihat_j, Phat_j)``; Kalman-update the radius given ``i_j``; log-weight
+   ``+= log p(v | i_j, rho_j, Sigma_j) + log p(i_j | i_j^-, s_j) - log q(i_j)``.
+4. Normalise in the log domain. If no particle explains the sample (every log-likelihood below
+   ``underflow_log_likelihood`` or non-finite: the weights would all underflow to 0), reset the weights to uniform
+   and widen the radius beliefs instead of dividing by zero. Resample (systematic) when the effective sample size
+   falls below ``resample_ess_fraction * n_particles``.
+
+Below ``min_speed_mps`` ground speed the filter only predicts: at standstill a spinning wheel has slip ~1 and the
+speed ratio carries no radius information. The radius belief is kept within ``[0.5, 1.02] x`` nominal. The filter does not estimate mass or slope: it reports
+the prior (mid-range mass, level track) with large standard deviations. Its results are in ``extras``:
+``slip_ratio``, ``slip_ratio_std``, ``drive_radius_m``, ``drive_radius_m_std``, ``macro_slip_prob`` (posterior
+probability of the macro-slip regime) and ``ess_fraction``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from uuom_gym.vehicle import VehicleParams
+
+from .base import Estimate, Estimator
+
+_LOG_2PI = math.log(2.0 * math.pi)
+_N_STATE = 2
+
+
+class AUPFConfigError(ValueError):
+    """An AUPF option that cannot work (names the option and the value)."""
+
+
+class AUPFEstimator(Estimator):
+    """Adaptive unscented particle filter for the drive slip ratio and the effective drive-wheel radius.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams, optional
+        Nominal drive-wheel radius, clamp force, dry and wet adhesion come from here.
+    n_particles : int, default 64
+        Number of particles (each runs its own adaptive UKF for its proposal).
+    seed : int, default 0
+        Seed of the filter's own random generator (sampling, regime draws, resampling).
+    gear_ratio : float, default 1.0
+        ``motor_speed_radps / drive-wheel angular speed``.
+    initial_radius_std_m : float, default 0.005
+        Prior standard deviation of the radius around the nominal (unworn) one.
+    radius_process_std_m_per_sqrt_s : float, default 1e-5
+        Random-walk intensity of the radius (wear is slow).
+    slip_process_std : float, default 0.03
+        Slip process noise per sqrt(second) while adhering.
+    macro_slip_process_std : float, default 1.0
+        Slip process noise per sqrt(second) in macro-slip.
+    slip_time_constant_s : float, default 0.3
+        Relaxation time of the slip to the creep curve while adhering.
+    creep_slip : float, default 0.005
+        ``i_c`` of the creep curve.
+    adhesion : float, optional
+        ``mu_a`` of the creep curve; default the vehicle's dry-rail adhesion.
+    slip_onset_rate_hz, spontaneous_slip_rate_hz, slip_recovery_rate_hz : float, default 2.0, 0.01, 1.0
+        Regime-switch rates (see the module docstring).
+    max_slip : float, default 0.95
+        Bound of the slip ratio.
+    speed_std_mps : float, default 0.02
+        Initial ground-speed noise (adapted online).
+    motor_speed_std_radps : float, default 0.05
+        Drive-wheel speed noise, folded into the initial measurement noise.
+    noise_fading : float, default 0.995
+        Sage-Husa fading factor ``b``.
+    alpha, beta : float, default 1.0, 2.0
+        Unscented-transform parameters (paper 004: ``1e-4 <= alpha <= 1``, ``beta = 2``).
+    resample_ess_fraction : float, default 0.5
+        Resample when ESS < this fraction of ``n_particles``.
+    min_speed_mps : float, default 0.05
+        Below this ground speed the filter only predicts.
+    underflow_log_likelihood : float, default -30.0
+        Weight-underflow threshold of the best particle's log-likelihood.
+    radius_model_std_m : float, optional
+        Added (in quadrature) to the reported radius standard deviation: the filter's own variance only knows the
+        sensor noise, but a creep slip that differs from the model's is indistinguishable from wear. Default
+        ``0.5 * creep_slip * r_nominal`` (0.43 mm).
+
+    Attributes
+    ----------
+    slip : ndarray, shape (n_particles,)
+        Every particle's slip ratio.
+    regime : ndarray of int8, shape (n_particles,)
+        0 adhering, 1 macro-slip.
+    radius_mean_m, radius_var_m2 : ndarray, shape (n_particles,)
+        Every particle's Gaussian belief of the radius.
+    weights : ndarray, shape (n_particles,)
+        Normalised particle weights.
+    R : ndarray, shape (n_particles,)
+        Every particle's adapted measurement-noise variance.
+    n_resamples, n_underflow_recoveries : int
+        Diagnostics counters.
+    """
+
+    name = "aupf"
+    provides = frozenset({"slip", "radius"})
+
+    def __init__(
+        self,
+        vehicle: VehicleParams | None = None,
+        *,
+        n_particles: int = 64,
+        seed: int = 0,
+        gear_ratio: float = 1.0,
+        initial_radius_std_m: float = 0.005,
+        radius_process_std_m_per_sqrt_s: float = 1e-5,
+        slip_process_std: float = 0.03,
+        macro_slip_process_std: float = 1.0,
+        slip_time_constant_s: float = 0.3,
+        creep_slip: float = 0.005,
+        adhesion: float | None = None,
+        slip_onset_rate_hz: float = 2.0,
+        spontaneous_slip_rate_hz: float = 0.01,
+        slip_recovery_rate_hz: float = 1.0,
+        max_slip: float = 0.95,
+        speed_std_mps: float = 0.02,
+        motor_speed_std_radps: float = 0.05,
+        noise_fading: float = 0.995,
+        alpha: float = 1.0,
+        beta: float = 2.0,
+        resample_ess_fraction: float = 0.5,
+        min_speed_mps: float = 0.05,
+        underflow_log_likelihood: float = -30.0,
+        radius_model_std_m: float | None = None,
+        **options: Any,
+    ) -> None:
+        super().__init__(vehicle, **options)
+        veh = self.vehicle
+        if isinstance(n_particles, bool) or not isinstance(n_particles, (int, np.integer)) or n_particles < 2:
+            raise AUPFConfigError(f"n_particles must be an integer >= 2, got {n_particles!r}")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+            raise AUPFConfigError(f"seed must be an integer, got {seed!r}")
+        mu_a = veh.adhesion_dry if adhesion is None else adhesion
+        positive = {
+            "gear_ratio": gear_ratio,
+            "initial_radius_std_m": initial_radius_std_m,
+            "radius_process_std_m_per_sqrt_s": radius_process_std_m_per_sqrt_s,
+            "slip_process_std": slip_process_std,
+            "macro_slip_process_std": macro_slip_process_std,
+            "slip_time_constant_s": slip_time_constant_s,
+            "creep_slip": creep_slip,
+            "adhesion": mu_a,
+            "slip_recovery_rate_hz": slip_recovery_rate_hz,
+            "max_slip": max_slip,
+            "speed_std_mps": speed_std_mps,
+            "motor_speed_std_radps": motor_speed_std_radps,
+            "alpha": alpha,
+            "resample_ess_fraction": resample_ess_fraction,
+            "min_speed_mps": min_speed_mps,
+        }
+        others = {
+            "beta": beta,
+            "noise_fading": noise_fading,
+            "underflow_log_likelihood": underflow_log_likelihood,
+            "slip_onset_rate_hz": slip_onset_rate_hz,
+            "spontaneous_slip_rate_hz": spontaneous_slip_rate_hz,
+        }
+        for key, value in {**positive, **others}.items():
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
+                raise AUPFConfigError(f"{key} must be a finite number, got {value!r}")
+        for key, value in positive.items():
+            if value <= 0:
+                raise AUPFConfigError(f"{key} must be > 0, got {value!r}")
+        for key in ("beta", "slip_onset_rate_hz", "spontaneous_slip_rate_hz"):
+            if others[key] < 0:
+                raise AUPFConfigError(f"{key} must be >= 0, got {others[key]!r}")
+        if not (0.0 < noise_fading < 1.0):
+            raise AUPFConfigError(f"noise_fading must be in (0, 1), got {noise_fading!r}")
+        if not (1e-4 <= alpha <= 1.0):
+            raise AUPFConfigError(f"alpha must be in [1e-4, 1] (paper 004), got {alpha!r}")
+        if resample_ess_fraction > 1.0:
+            raise AUPFConfigError(f"resample_ess_fraction must be <= 1, got {resample_ess_fraction!r}")
+        if max_slip >= 1.0:
+            raise AUPFConfigError(f"max_slip must be < 1, got {max_slip!r}")
+        if underflow_log_likelihood >= 0:
+            raise AUPFConfigError(f"underflow_log_likelihood must be < 0, got {underflow_log_likelihood!r}")
+
+        self.n_particles = int(n_particles)
+        self.seed = int(seed)
+        self._gear = float(gear_ratio)
+        self._r_nom = veh.drive_wheel_radius_m
+        self._clamp_n = veh.clamp_force_n
+        self._sigma0 = float(initial_radius_std_m) ** 2
+        if radius_model_std_m is None:
+            radius_model_std_m = 0.5 * creep_slip * self._r_nom
+        if not isinstance(radius_model_std_m, (int, float)) or not (0.0 <= radius_model_std_m < math.inf):
+            raise AUPFConfigError(f"radius_model_std_m must be a finite number >= 0, got {radius_model_std_m!r}")
+        self._r_model_var = float(radius_model_std_m) ** 2
+        self._q_r = float(radius_process_std_m_per_sqrt_s) ** 2
+        self._q_adh = float(slip_process_std) ** 2
+        self._q_macro = float(macro_slip_process_std) ** 2
+        self._tau = float(slip_time_constant_s)
+        self._i_c = float(creep_slip)
+        self._mu_a = float(mu_a)
+        self._u_onset = 0.8 * veh.adhesion_wet
+        self._rate_onset = float(slip_onset_rate_hz)
+        self._rate_spont = float(spontaneous_slip_rate_hz)
+        self._rate_recover = float(slip_recovery_rate_hz)
+        self._max_slip = float(max_slip)
+        # both encoders' noise enter the one measurement equation; the adaptation refines the sum
+        self._r0 = float(speed_std_mps) ** 2 + (float(motor_speed_std_radps) * self._r_nom) ** 2
+        self._r_min = 0.05 * self._r0
+        self._b = float(noise_fading)
+        self._ess_min = float(resample_ess_fraction) * self.n_particles
+        self._v_min = float(min_speed_mps)
+        self._ll_floor = float(underflow_log_likelihood)
+        n = _N_STATE
+        lam = n * (alpha**2 - 1.0)
+        self._gamma = math.sqrt(n + lam)
+        wm = np.full(2 * n + 1, 1.0 / (2.0 * (n + lam)))
+        wc = wm.copy()
+        wm[0] = lam / (n + lam)
+        wc[0] = lam / (n + lam) + (1.0 - alpha**2 + beta)
+        self._wm = wm
+        self._wc = wc
+        self._prior = Estimate(
+            mass_kg=veh.empty_mass_kg + 0.5 * veh.rated_load_kg,
+            slope_rad=0.0,
+            mass_std_kg=max(veh.rated_load_kg, 1.0) / math.sqrt(12.0),
+            slope_std_rad=math.radians(veh.max_grade_deg) / math.sqrt(3.0),
+        )
+        self.reset()
+
+    # ------------------------------------------------------------------------------------------------------
+    def reset(self) -> None:
+        n = self.n_particles
+        self._rng = np.random.default_rng(self.seed)
+        self._i = np.zeros(n)
+        self._s = np.zeros(n, dtype=np.int8)
+        self._rho = np.full(n, self._r_nom)
+        self._sig = np.full(n, self._sigma0)
+        self._R = np.full(n, self._r0)
+        self._logw = np.full(n, -math.log(n))
+        self._k = 0
+        self._last_torque = 0.0
+        self._ess = float(n)
+        self.n_resamples = 0
+        self.n_underflow_recoveries = 0
+        self._estimate = self._summary()
+
+    @property
+    def slip(self) -> np.ndarray:
+        return self._i.copy()
+
+    @property
+    def regime(self) -> np.ndarray:
+        return self._s.copy()
+
+    @property
+    def radius_mean_m(self) -> np.ndarray:
+        return self._rho.copy()
+
+    @property
+    def radius_var_m2(self) -> np.ndarray:
+        return self._sig.copy()
+
+    @property
+    def weights(self) -> np.ndarray:
+        return np.exp(self._logw)
+
+    @property
+    def R(self) -> np.ndarray:
+        return self._R.copy()
+
+    @property
+    def estimate(self) -> Estimate:
+        return self._estimate
+
+    # ------------------------------------------------------------------------------------------------------
+    def creep_slip_target(self, torque_nm: float, radius_m: np.ndarray | float) -> np.ndarray:
+        """Slip ratio of the dry creep curve for a drive torque at the given radius (sign of the torque)."""
+        u = abs(torque_nm) / (np.maximum(np.asarray(radius_m, dtype=float), 1e-3) * self._clamp_n)
+        ratio = np.minimum(u / self._mu_a, 1.0 - 1e-9)
+        target = np.minimum(-self._i_c * np.log1p(-ratio), self._max_slip)
+        return target if torque_nm >= 0 else -target
+
+    def _slip_mean(self, i: np.ndarray, r: np.ndarray, macro: np.ndarray, torque: float, a: float) -> np.ndarray:
+        """Predicted slip (before process noise): relaxation to the creep curve, or hold in macro-slip."""
+        relaxed = i + a * (self.creep_slip_target(torque, r) - i)
+        return np.where(macro, i, relaxed)
+
+    def _h(self, i: np.ndarray, r: np.ndarray, omega: float) -> np.ndarray:
+        rim = omega * r
+        return np.where(i >= 0.0, rim * (1.0 - i), rim / (1.0 + i))
+
+    def update(
+        self,
+        torque_nm: float,
+        speed_mps: float,
+        accel_mps2: float,
+        dt_s: float,
+        motor_speed_radps: float = math.nan,
+        gyro_radps: float = math.nan,
+        accel_normal_mps2: float = math.nan,
+    ) -> Estimate:
+        """Process one sample (torque, ground speed and motor speed are used); NaN = missing (predict only)."""
+        if not (dt_s >= 0.0) or not math.isfinite(dt_s):
+            raise ValueError(f"aupf: dt_s must be a finite number >= 0, got {dt_s!r}")
+        if math.isfinite(torque_nm):
+            self._last_torque = float(torque_nm)
+        torque = self._last_torque
+        omega = motor_speed_radps / self._gear if math.isfinite(motor_speed_radps) else math.nan
+        # at (near) standstill a spinning wheel has slip ~1 and the ratio carries no radius information
+        can_update = math.isfinite(speed_mps) and math.isfinite(omega) and abs(speed_mps) >= self._v_min
+        if dt_s <= 0.0:
+            return self._estimate
+        n = self.n_particles
+        rng = self._rng
+        # 1. regime transitions (Markov chain; onset more likely when traction exceeds the wet-rail adhesion)
+        u = abs(torque) / (self._rho * self._clamp_n)
+        logistic_arg = np.clip((u - self._u_onset) / 0.01, -50.0, 50.0)
+        onset = self._rate_spont + self._rate_onset / (1.0 + np.exp(-logistic_arg))
+        p_switch = np.where(self._s == 1, -math.expm1(-self._rate_recover * dt_s), -np.expm1(-onset * dt_s))
+        flip = rng.random(n) < p_switch
+        self._s = np.where(flip, 1 - self._s, self._s).astype(np.int8)
+        macro = self._s == 1
+        a = min(dt_s / self._tau, 1.0)
+        q_i = np.where(macro, self._q_macro, self._q_adh) * dt_s
+        q_r = self._q_r * dt_s
+        m_i = self._slip_mean(self._i, self._rho, macro, torque, a)
+        if not can_update:
+            self._i = np.clip(m_i + np.sqrt(q_i) * rng.standard_normal(n), -self._max_slip, self._max_slip)
+            self._sig = self._sig + q_r
+            self._estimate = self._summary()
+            return self._estimate
+        y = float(speed_mps)
+        # 2. AUKF proposal per particle: prediction from ([i, rho], diag(0, Sigma)) ...
+        g = self._gamma
+        sd_r = np.sqrt(self._sig)
+        r_sig = np.stack([self._rho, self._rho + g * sd_r, self._rho - g * sd_r], axis=1)
+        i_rep = np.repeat(self._i[:, None], 3, axis=1)
+        f_i = self._slip_mean(i_rep, r_sig, macro[:, None], torque, a)
+        # sigma points of the slip dimension coincide with the mean (zero variance): only the radius ones spread
+        wm, wc = self._wm, self._wc
+        w3m = np.array([wm[0] + wm[1] + wm[2], wm[3], wm[4]])
+        w3c = np.array([wc[0] + wc[1] + wc[2], wc[3], wc[4]])
+        mi = f_i @ w3m
+        di = f_i - mi[:, None]
+        dr = r_sig - self._rho[:, None]
+        c11 = (di * di) @ w3c + q_i
+        c12 = (di * dr) @ w3c
+        c22 = self._sig + q_r
+        mr = self._rho
+        # ... and the unscented update with the measured ground speed (redrawn sigma points)
+        l11 = np.sqrt(c11)
+        l21 = c12 / l11
+        l22 = np.sqrt(np.maximum(c22 - l21 * l21, 1e-300))
+        si = np.stack([mi, mi + g * l11, mi - g * l11, mi, mi], axis=1)
+        sr = np.stack([mr, mr + g * l21, mr - g * l21, mr + g * l22, mr - g * l22], axis=1)
+        ys = self._h(si, sr, omega)
+        y_mean = ys @ wm
+        dy = ys - y_mean[:, None]
+        pyy = (dy * dy) @ wc
+        pxy = ((si - mi[:, None]) * dy) @ wc
+        s_y = np.maximum(pyy, 0.0) + self._R
+        innov = y - y_mean
+        k_i = pxy / s_y
+        hat_i = mi + k_i * innov
+        hat_p = np.maximum(c11 - k_i * k_i * s_y, 1e-12)
+        # adaptive measurement noise (Sage-Husa, per particle)
+        self._k += 1
+        d = (1.0 - self._b) / (1.0 - self._b ** (self._k + 1))
+        self._R = np.clip((1.0 - d) * self._R + d * (innov * innov - pyy), self._r_min, 1e4 * self._r0)
+        # 3. importance sampling of the slip; exact Kalman update of the radius given it
+        z = rng.standard_normal(n)
+        new_i = np.clip(hat_i + np.sqrt(hat_p) * z, -self._max_slip, self._max_slip)
+        h = np.where(new_i >= 0.0, omega * (1.0 - new_i), omega / (1.0 + new_i))
+        sig_bar = self._sig + q_r
+        s_r = h * h * sig_bar + self._R
+        resid = y - h * self._rho
+        log_lik = -0.5 * (resid * resid / s_r + np.log(s_r) + _LOG_2PI)
+        k_r = sig_bar * h / s_r
+        # physical bounds: a drive wheel cannot grow, nor wear beyond half its radius
+        self._rho = np.clip(self._rho + k_r * resid, 0.5 * self._r_nom, 1.02 * self._r_nom)
+        self._sig = np.maximum(sig_bar - k_r * k_r * s_r, 1e-16)
+        e_t = new_i - m_i
+        e_q = new_i - hat_i
+        log_trans = -0.5 * (e_t * e_t / q_i + np.log(q_i))
+        log_q = -0.5 * (e_q * e_q / hat_p + np.log(hat_p))
+        self._i = new_i
+        # 4. weights in the log domain, underflow recovery, resampling
+        if not np.all(np.isfinite(log_lik)) or float(log_lik.max()) < self._ll_floor:
+            self._recover_from_underflow()
+        else:
+            logw = self._logw + log_lik + log_trans - log_q
+            logw = np.where(np.isfinite(logw), logw, -np.inf)
+            top = float(logw.max())
+            if not math.isfinite(top):
+                self._recover_from_underflow()
+            else:
+                self._logw = logw - (top + math.log(float(np.exp(logw - top).sum())))
+        w = np.exp(self._logw)
+        self._ess = 1.0 / float(w @ w)
+        if self._ess < self._ess_min:
+            self._resample(w)
+        self._estimate = self._summary()
+        return self._estimate
+
+    def _recover_from_underflow(self) -> None:
+        # no particle explains the sample: restart the weights and widen the radius beliefs, never divide by 0
+        self.n_underflow_recoveries += 1
+        self._logw = np.full(self.n_particles, -math.log(self.n_particles))
+        self._sig = self._sig + 0.01 * self._sigma0
+        bad = ~(np.isfinite(self._i) & np.isfinite(self._rho) & np.isfinite(self._sig))
+        if bad.any():
+            self._i[bad] = 0.0
+            self._rho[bad] = self._r_nom
+            self._sig[bad] = self._sigma0
+
+    def _resample(self, w: np.ndarray) -> None:
+        n = self.n_particles
+        positions = (self._rng.random() + np.arange(n)) / n
+        cum = np.cumsum(w)
+        cum[-1] = 1.0
+        idx = np.searchsorted(cum, positions)
+        self._i = self._i[idx]
+        self._s = self._s[idx]
+        self._rho = self._rho[idx]
+        self._sig = self._sig[idx]
+        self._R = self._R[idx]
+        self._logw = np.full(n, -math.log(n))
+        self.n_resamples += 1
+
+    def _summary(self) -> Estimate:
+        w = np.exp(self._logw)
+        w /= w.sum()
+        i_mean = float(w @ self._i)
+        r_mean = float(w @ self._rho)
+        di = self._i - i_mean
+        dr = self._rho - r_mean
+        var_i = float(w @ (di * di))
+        # plus the model term: slip the creep curve cannot tell from wear (see ``radius_model_std_m``)
+        var_r = float(w @ (self._sig + dr * dr)) + self._r_model_var
+        p = self._prior
+        return Estimate(
+            p.mass_kg,
+            p.slope_rad,
+            p.mass_std_kg,
+            p.slope_std_rad,
+            extras={
+                "slip_ratio": i_mean,
+                "slip_ratio_std": math.sqrt(max(var_i, 0.0)),
+                "drive_radius_m": r_mean,
+                "drive_radius_m_std": math.sqrt(max(var_r, 0.0)),
+                "macro_slip_prob": float(w @ self._s),
+                "ess_fraction": self._ess / self.n_particles,
+            },
+        )
+
+
+__all__ = ["AUPFConfigError", "AUPFEstimator"]

@@ -1,0 +1,209 @@
+"""Shared numerical helpers of the estimators: low-pass filters, input gating, forgetting, PD-safe updates.
+
+Everything here is written for speed in pure Python on scalars (the estimators run one sample at a time, where
+numpy's per-call overhead dominates for 2x2 matrices), with numpy variants for the larger filters. The other
+estimator modules (MMAE, IMU-UKF, AUPF) may use them as well.
+
+2x2 symmetric matrices are passed as the three floats ``(p11, p12, p22)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = [
+    "LowPass2",
+    "SpikeGate",
+    "dynamic_forgetting",
+    "sage_husa_weight",
+    "joseph_update",
+    "repair_pd",
+    "repair_pd_2x2",
+    "check_dt",
+    "first_order_alpha",
+]
+
+
+def check_dt(dt_s: float) -> float:
+    """Validate a sample interval: finite and > 0 (a zero or negative step is a caller bug, not a dropout)."""
+    if not (dt_s > 0.0 and dt_s < math.inf):
+        raise ValueError(f"dt_s must be a finite number > 0, got {dt_s!r}")
+    return dt_s
+
+
+def first_order_alpha(cutoff_hz: float, dt_s: float) -> float:
+    """Smoothing weight of a discrete first-order low-pass (exact for a step of ``dt_s``), in (0, 1]."""
+    return 1.0 - math.exp(-2.0 * math.pi * cutoff_hz * dt_s)
+
+
+class LowPass2:
+    """Second-order (two cascaded first-order sections) low-pass filter of one signal.
+
+    Used on *both* sides of a regression so that the phase lag is the same on the output and on the regressors
+    (a linear filter commutes with a linear model), and on speed before differentiating it.
+
+    Parameters
+    ----------
+    cutoff_hz : float
+        Corner frequency of each section, > 0.
+
+    Notes
+    -----
+    A missing (NaN) input holds the last valid input (zero-order hold), so the output stays finite and the
+    filter keeps its phase relation with the other filtered channels. Until the first valid input the output
+    is NaN-free zero and :attr:`ready` is False.
+    """
+
+    __slots__ = ("cutoff_hz", "y1", "y2", "last", "ready", "_dt", "_alpha")
+
+    def __init__(self, cutoff_hz: float) -> None:
+        if not (cutoff_hz > 0.0 and math.isfinite(cutoff_hz)):
+            raise ValueError(f"cutoff_hz must be a finite number > 0, got {cutoff_hz!r}")
+        self.cutoff_hz = float(cutoff_hz)
+        self._dt = -1.0
+        self._alpha = 1.0
+        self.reset()
+
+    def reset(self) -> None:
+        self.y1 = 0.0
+        self.y2 = 0.0
+        self.last = 0.0
+        self.ready = False
+
+    def __call__(self, x: float, dt_s: float) -> float:
+        if x != x:  # NaN: hold the last valid input
+            if not self.ready:
+                return 0.0
+            x = self.last
+        elif not self.ready:
+            # start at the first value instead of ramping up from zero (no start-up transient to forget)
+            self.y1 = self.y2 = self.last = x
+            self.ready = True
+            return x
+        self.last = x
+        if dt_s != self._dt:
+            self._dt = dt_s
+            self._alpha = 1.0 - math.exp(-2.0 * math.pi * self.cutoff_hz * dt_s)
+        a = self._alpha
+        y1 = self.y1 + a * (x - self.y1)
+        self.y1 = y1
+        y2 = self.y2 + a * (y1 - self.y2)
+        self.y2 = y2
+        return y2
+
+
+class SpikeGate:
+    """Rejects physically impossible jumps of a sensor channel (spikes) and impossible values.
+
+    A sample is a spike when it differs from the last accepted one by more than ``max_rate * dt + noise_band``,
+    or when ``|x| > max_abs``. A spike is returned as NaN (treated as missing by the estimators). After
+    ``relock_after`` consecutive rejections the gate accepts again, so a real step (or a sensor whose offset
+    really changed) cannot lock the channel out forever.
+
+    Parameters
+    ----------
+    max_rate : float
+        Largest physical rate of change of the signal, in its unit per second.
+    noise_band : float
+        Allowance for measurement noise and quantisation, in the signal's unit.
+    max_abs : float
+        Largest physical magnitude.
+    relock_after : int
+        Consecutive rejections after which the next sample is accepted.
+    """
+
+    __slots__ = ("max_rate", "noise_band", "max_abs", "relock_after", "last", "rejected", "total_rejected")
+
+    def __init__(self, max_rate: float, noise_band: float, max_abs: float, relock_after: int = 40) -> None:
+        for name, value in (("max_rate", max_rate), ("noise_band", noise_band), ("max_abs", max_abs)):
+            if not (value > 0.0 and math.isfinite(value)):
+                raise ValueError(f"SpikeGate: {name} must be a finite number > 0, got {value!r}")
+        self.max_rate = float(max_rate)
+        self.noise_band = float(noise_band)
+        self.max_abs = float(max_abs)
+        self.relock_after = int(relock_after)
+        self.reset()
+
+    def reset(self) -> None:
+        self.last = math.nan
+        self.rejected = 0
+        self.total_rejected = 0
+
+    def __call__(self, x: float, dt_s: float) -> float:
+        if x != x:
+            return x
+        if abs(x) > self.max_abs:
+            self.total_rejected += 1
+            return math.nan
+        last = self.last
+        if last == last and abs(x - last) > self.max_rate * dt_s * (self.rejected + 1) + self.noise_band:
+            self.rejected += 1
+            self.total_rejected += 1
+            if self.rejected <= self.relock_after:
+                return math.nan
+        self.rejected = 0
+        self.last = x
+        return x
+
+
+def dynamic_forgetting(residual: float, delta: float, sigma: float) -> float:
+    """Paper 000 eq. 19: ``lambda = delta + (1 - delta) exp(-sigma |e|)``, in [delta, 1]."""
+    return delta + (1.0 - delta) * math.exp(-sigma * abs(residual))
+
+
+def sage_husa_weight(b: float, k: int) -> float:
+    """Sage-Husa weight ``d_k = (1 - b) / (1 - b**(k+1))`` for the k-th update (k = 0, 1, ...).
+
+    ``d_0 = 1`` would throw the prior noise statistics away on the first sample; callers start at ``k >= 1``.
+    """
+    return (1.0 - b) / (1.0 - b ** (k + 1))
+
+
+def repair_pd_2x2(p11: float, p12: float, p22: float, floor: tuple[float, float] = (1e-18, 1e-18),
+                  ceil: tuple[float, float] = (math.inf, math.inf)) -> tuple[float, float, float]:
+    """Make a symmetric 2x2 matrix positive definite with its diagonal in ``[floor, ceil]``.
+
+    Non-finite entries are replaced by the floor; the off-diagonal is shrunk so that the correlation stays below
+    0.999 (determinant > 0).
+    """
+    if not (p11 == p11 and abs(p11) < math.inf):
+        p11 = floor[0]
+    if not (p22 == p22 and abs(p22) < math.inf):
+        p22 = floor[1]
+    if not (p12 == p12 and abs(p12) < math.inf):
+        p12 = 0.0
+    p11 = min(max(p11, floor[0]), ceil[0])
+    p22 = min(max(p22, floor[1]), ceil[1])
+    lim = 0.999 * math.sqrt(p11 * p22)
+    if p12 > lim:
+        p12 = lim
+    elif p12 < -lim:
+        p12 = -lim
+    return p11, p12, p22
+
+
+def joseph_update(P: np.ndarray, K: np.ndarray, H: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Joseph-form covariance update ``(I - K H) P (I - K H)^T + K R K^T``, symmetrised.
+
+    Stays symmetric positive semi-definite for any gain, unlike ``(I - K H) P``.
+    """
+    n = P.shape[0]
+    A = np.eye(n) - K @ H
+    out = A @ P @ A.T + K @ R @ K.T
+    return 0.5 * (out + out.T)
+
+
+def repair_pd(P: np.ndarray, min_eig: float = 1e-12, max_eig: float = math.inf) -> np.ndarray:
+    """Nearest symmetric matrix with eigenvalues clipped into ``[min_eig, max_eig]`` (NaN/inf -> ``min_eig * I``)."""
+    P = np.asarray(P, dtype=np.float64)
+    if not np.all(np.isfinite(P)):
+        return np.eye(P.shape[0]) * min_eig
+    S = 0.5 * (P + P.T)
+    w, V = np.linalg.eigh(S)
+    if w[0] >= min_eig and w[-1] <= max_eig:
+        return S
+    w = np.clip(w, min_eig, max_eig)
+    out = (V * w) @ V.T
+    return 0.5 * (out + out.T)

@@ -1,0 +1,76 @@
+"""Simulated runs for training and tuning the IMU pipeline.
+
+``source="sim"`` drives the project's pymunk plant (``uuom_gym.sim.recording.simulate_run``) over random tracks;
+``source="synthetic"`` uses the kinematic unit-test signal of :mod:`estimators.imu.synthetic`; ``"auto"`` takes
+the plant when it is importable and says which it used.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from uuom_gym.trace import Trace
+
+from .synthetic import synthetic_imu_run
+
+__all__ = ["make_runs", "plant_available"]
+
+
+def plant_available() -> bool:
+    """Whether the plant's ``simulate_run`` and ``random_track`` can be imported."""
+    try:
+        from uuom_gym.sim.recording import simulate_run  # noqa: F401
+        from uuom_gym.sim.track import random_track  # noqa: F401
+    except Exception:  # noqa: BLE001 - any import failure means: not available
+        return False
+    return True
+
+
+def _plant_run(seed: int) -> Trace:
+    """One stop-and-go run of the plant: start from rest, cruise, change speed, brake to a stop, stand.
+
+    The driver's reference speed is a function of position, so a run holds one such cycle; the standstill comes
+    at its end (10-25 s of it).
+    """
+    from uuom_gym.limits import load_speed_limit_mps
+    from uuom_gym.sim.recording import simulate_run
+    from uuom_gym.sim.scenarios import SpeedProfile
+    from uuom_gym.sim.track import random_track
+    from uuom_gym.vehicle import DEFAULT_VEHICLE
+
+    rng = np.random.default_rng(seed)
+    veh = DEFAULT_VEHICLE
+    load = float(rng.uniform(0.0, veh.rated_load_kg))
+    track = random_track(rng, length_m=(250.0, 400.0), load_kg=load)
+    v_max = 0.9 * load_speed_limit_mps(veh, veh.empty_mass_kg + load)
+    v1, v2 = (float(rng.uniform(0.3, max(v_max, 0.35))) for _ in range(2))
+    d1, d2 = float(rng.uniform(10.0, 35.0)), float(rng.uniform(8.0, 25.0))
+    a_lim = float(rng.uniform(0.08, 0.3))
+    s1, s2 = 2.0 + d1, 2.0 + d1 + d2
+    profile = SpeedProfile(((0.0, v1), (s1, v1), (s1 + 0.5, v2), (s2, v2), (s2 + 0.5, 0.0)),
+                           accel_limit_mps2=a_lim)
+    moving_s = d1 / v1 + d2 / v2 + 2.0 * (v1 + abs(v2 - v1) + v2) / a_lim + 5.0
+    duration = moving_s + float(rng.uniform(10.0, 25.0))
+    return simulate_run(track, seed=seed, load_kg=load, speed_profile=profile, duration_s=duration)
+
+
+def make_runs(n: int, seed: int, duration_s: float = 120.0, source: str = "auto") -> tuple[list[Trace], str]:
+    """``n`` runs with IMU columns and truth, seeds ``seed, seed+1, ...``; returns ``(traces, source_used)``.
+
+    ``duration_s`` applies to synthetic runs; a plant run lasts its stop-and-go cycle plus 10-25 s at rest.
+    """
+    if source not in ("auto", "sim", "synthetic"):
+        raise ValueError(f"source must be 'auto', 'sim' or 'synthetic', got {source!r}")
+    if source == "auto":
+        source = "sim" if plant_available() else "synthetic"
+    runs: list[Trace] = []
+    if source == "synthetic":
+        runs = [synthetic_imu_run(seed + k, duration_s) for k in range(n)]
+    else:
+        for k in range(n):
+            runs.append(_plant_run(seed + k))
+        for tr in runs:
+            missing = [c for c in ("gyro_radps", "accel_normal_mps2", "slope_deg", "true_speed_mps") if c not in tr]
+            if missing:
+                raise ValueError(f"{tr.source}: the plant's trace lacks {', '.join(missing)}")
+    return runs, source

@@ -1,0 +1,496 @@
+"""Multiple-model adaptive estimation (MMAE) of the payload, after patent CN101467011 (spec ``model.md`` §5.6).
+
+A bank of ``r`` continuous-discrete extended Kalman filters runs on the same data, model ``j`` assuming the payload
+``p_j`` (spread evenly over ``[payload_min_kg, payload_max_kg]``). Each filter tracks ``x_j = [v, theta, kappa]``
+(ground speed, track slope at the accelerometer, slope curvature ``d theta / ds``) with the longitudinal model of
+spec §2::
+
+    (M_j + m_rot) dv/dt = T/r - m_f g [sin(theta) + mu cos(theta) s(v)] - m_rj g [sin(theta_r) + mu cos(theta_r) s(v)]
+    d theta / dt        = kappa v                   (+ a small random walk)
+    d kappa / ds        = w_kappa                   (random walk in distance: vertical curves start and end)
+
+with ``s(v) = tanh(v / v_s)``. The train is 18 m long: its front part ``m_f`` (the drive section carrying the
+accelerometer, ``front_mass_fraction`` of the empty mass) is on the slope ``theta`` at the accelerometer, its rear
+part ``m_rj`` (the rest of the empty mass plus the payload ``p_j`` hanging from the lifting beams) on the slope
+``theta_r`` ``rear_offset_m`` metres behind. ``theta_r`` is not a state: the bank remembers a model-free slope
+measurement ``asin((f - dv/dt) / g)`` (low-passed) along the distance travelled (odometry from the measured speed)
+and looks up where the rear is now. (Remembering the bank's own estimate instead fed its errors back: measured
+slope errors of 1.5 deg on level track.) On a short
+vertical curve (the road test: 0 to 11 deg in 8 m) a single-slope model put the whole mass on the accelerometer's
+slope and drove the payload to the edge of the bank (measured, docs/mmae_aupf.md). The slope reported is
+``theta``, at the train's reference point (``position_m`` of the plant).
+
+The mean is propagated with a fixed-step fourth-order Runge-Kutta step of the speed equation (as the patent does;
+over one sample the slope is held and then advanced by ``kappa`` times the distance travelled), the covariance with
+the first-order transition matrix of the linearised model. Measurements are
+
+* the ground speed ``v`` (encoder on a carrying wheel), and
+* the along-track accelerometer, modelled as what it is, the specific force ``f = dv/dt + g sin(theta)``.
+
+``f`` is what makes the payload identifiable without acceleration excitation: it is the contact force per unit
+mass, so ``f (M + m_rot) ~ T/r - mu M g`` ties the mass to the measured torque while the train pulls. The speed
+(through ``dv/dt = f - g sin(theta)``) makes the slope observable.
+
+The two measurements are applied one after the other as scalar updates (exactly equivalent to the joint update for
+independent noises); the model likelihood is the product of the two scalar innovation densities (chain rule).
+Model probabilities are updated in the log domain, floored at ``prob_floor`` (so a model that lost can win again
+after a load change at a station) and renormalised. Estimates are the mixture mean and covariance, including the
+spread-of-means term.
+
+Two gates keep the probabilities from learning from data that carry no payload information or break the model:
+the probabilities are frozen when the drive force ``T/r`` is below ``min_traction_n`` (coasting or braking: the
+brake cars act with a force that is not measured) or the train is at standstill, and when even the best model's
+normalised innovation squared exceeds ``gate_nis`` (spikes, faults). The filters' states are still updated.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from uuom_gym.vehicle import G_MPS2, VehicleParams
+
+from .base import Estimate, Estimator
+
+_LOG_2PI = math.log(2.0 * math.pi)
+_REPAIR_EVERY = 50
+_SLOPE_TAU_S = 1.0  # low-pass of the model-free slope that feeds the rear-section slope history
+
+
+class MMAEConfigError(ValueError):
+    """An MMAE option that cannot work (names the option and the value)."""
+
+
+class MMAEEstimator(Estimator):
+    """Bank of continuous-discrete EKFs over hypothesised payloads with Bayesian model probabilities.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams, optional
+        Empty mass, rated load, drive radius, rotating mass and nominal running resistance come from here.
+    n_models : int, default 30
+        Number of payload hypotheses (the patent uses 30; 50 were run in real time).
+    payload_min_kg, payload_max_kg : float, optional
+        Range of the hypotheses; default 0 to the vehicle's rated load.
+    running_resistance : float, optional
+        Running-resistance coefficient of the model; default the vehicle's nominal value.
+    speed_std_mps : float, default 0.02
+        Standard deviation of the ground-speed measurement.
+    accel_std_mps2 : float, default 0.3
+        Standard deviation of the specific-force measurement, including the vibration of the swinging load.
+    accel_process_std_mps2 : float, default 0.15
+        Intensity (m/s^2 per sqrt(Hz)) of the unmodelled longitudinal force per unit mass (couplers, sway).
+    curvature_change_std : float, default 6e-3
+        Random-walk intensity of the slope curvature ``kappa = d theta / ds`` per sqrt(metre) travelled (rad/m per
+        sqrt(m)); loose enough to follow the road test's 0-to-11 deg vertical curve of 8 m (0.024 rad/m).
+    initial_curvature_std_rad_per_m : float, default 1e-3
+        Prior standard deviation of the slope curvature (prior mean 0).
+    slope_process_floor_radps : float, default 1e-4
+        Slope random-walk intensity (in time) on top of the curvature model.
+    front_mass_fraction : float, default 0.55
+        Share of the empty mass on the front (drive) section, at the accelerometer.
+    rear_offset_m : float, default 9.0
+        Distance from the accelerometer back to the rear section and the payload's suspension (the project plant:
+        IMU on the drive section, lifting beams 9 m behind). Without it a 30 m vertical curve biased the payload
+        by 20-40 % (measured on the plant). 0 = a point mass (whole train on one slope).
+    history_step_m : float, default 0.25
+        Distance resolution of the remembered slope profile.
+    initial_slope_std_rad : float, default 0.15
+        Prior standard deviation of the slope (prior mean 0).
+    initial_speed_std_mps : float, default 0.5
+        Prior standard deviation of the speed (prior mean: the first valid speed sample).
+    prob_floor : float, default 1e-6
+        Lower bound of every model probability.
+    min_traction_n : float, default 2000.0
+        Model probabilities are only updated while the drive force ``T/r`` exceeds this.
+    standstill_speed_mps : float, default 0.03
+        Below this measured speed the train is taken as held at rest (a = 0, probabilities frozen).
+    smooth_speed_mps : float, default 0.05
+        ``v_s`` of the smooth sign ``tanh(v / v_s)`` of the running resistance.
+    gate_nis : float, default 36.0
+        Freeze the probabilities on a sample whose best-model normalised innovation squared exceeds this.
+
+    Attributes
+    ----------
+    payloads_kg : ndarray, shape (n_models,)
+        The hypothesised payloads.
+    x : ndarray, shape (n_models, 2)
+        Per-model state ``[v_mps, slope_rad]``.
+    P : ndarray, shape (n_models, 2, 2)
+        Per-model state covariance.
+    probabilities : ndarray, shape (n_models,)
+        Current model probabilities (sum to 1).
+    """
+
+    name = "mmae"
+    provides = frozenset({"mass", "slope"})
+
+    def __init__(
+        self,
+        vehicle: VehicleParams | None = None,
+        *,
+        n_models: int = 30,
+        payload_min_kg: float = 0.0,
+        payload_max_kg: float | None = None,
+        running_resistance: float | None = None,
+        speed_std_mps: float = 0.02,
+        accel_std_mps2: float = 0.3,
+        accel_process_std_mps2: float = 0.15,
+        curvature_change_std: float = 6e-3,
+        initial_curvature_std_rad_per_m: float = 1e-3,
+        front_mass_fraction: float = 0.55,
+        rear_offset_m: float = 9.0,
+        history_step_m: float = 0.25,
+        slope_process_floor_radps: float = 1e-4,
+        initial_slope_std_rad: float = 0.15,
+        initial_speed_std_mps: float = 0.5,
+        prob_floor: float = 1e-6,
+        min_traction_n: float = 2000.0,
+        standstill_speed_mps: float = 0.03,
+        smooth_speed_mps: float = 0.05,
+        gate_nis: float = 36.0,
+        **options: Any,
+    ) -> None:
+        super().__init__(vehicle, **options)
+        veh = self.vehicle
+        if isinstance(n_models, bool) or not isinstance(n_models, (int, np.integer)) or n_models < 2:
+            raise MMAEConfigError(f"n_models must be an integer >= 2, got {n_models!r}")
+        if payload_max_kg is None:
+            payload_max_kg = veh.rated_load_kg if veh.rated_load_kg > payload_min_kg else payload_min_kg + 1.0
+        positive = {
+            "speed_std_mps": speed_std_mps,
+            "accel_std_mps2": accel_std_mps2,
+            "accel_process_std_mps2": accel_process_std_mps2,
+            "slope_process_floor_radps": slope_process_floor_radps,
+            "initial_slope_std_rad": initial_slope_std_rad,
+            "initial_curvature_std_rad_per_m": initial_curvature_std_rad_per_m,
+            "initial_speed_std_mps": initial_speed_std_mps,
+            "smooth_speed_mps": smooth_speed_mps,
+            "history_step_m": history_step_m,
+            "gate_nis": gate_nis,
+        }
+        non_negative = {
+            "payload_min_kg": payload_min_kg,
+            "curvature_change_std": curvature_change_std,
+            "rear_offset_m": rear_offset_m,
+            "front_mass_fraction": front_mass_fraction,
+            "min_traction_n": min_traction_n,
+            "standstill_speed_mps": standstill_speed_mps,
+        }
+        for key, value in {**positive, **non_negative, "payload_max_kg": payload_max_kg}.items():
+            if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
+                raise MMAEConfigError(f"{key} must be a finite number, got {value!r}")
+        for key, value in positive.items():
+            if value <= 0:
+                raise MMAEConfigError(f"{key} must be > 0, got {value!r}")
+        for key, value in non_negative.items():
+            if value < 0:
+                raise MMAEConfigError(f"{key} must be >= 0, got {value!r}")
+        if payload_max_kg <= payload_min_kg:
+            raise MMAEConfigError(
+                f"payload_max_kg ({payload_max_kg!r}) must exceed payload_min_kg ({payload_min_kg!r})"
+            )
+        if not (0.0 < prob_floor < 1.0 / n_models):
+            raise MMAEConfigError(f"prob_floor must be in (0, 1/n_models), got {prob_floor!r}")
+        mu = veh.running_resistance if running_resistance is None else running_resistance
+        if not isinstance(mu, (int, float)) or not (0.0 <= mu < 1.0):
+            raise MMAEConfigError(f"running_resistance must be in [0, 1), got {mu!r}")
+
+        self.n_models = int(n_models)
+        self.payloads_kg = np.linspace(float(payload_min_kg), float(payload_max_kg), self.n_models)
+        self._mass = veh.empty_mass_kg + self.payloads_kg
+        self._m_rot = veh.rotating_mass_kg
+        self._inv_meff = 1.0 / (self._mass + self._m_rot)
+        self._mass_ratio = self._mass * self._inv_meff  # M_j / (M_j + m_rot)
+        self._rot_ratio = self._m_rot * self._inv_meff  # m_rot / (M_j + m_rot)
+        self._radius = veh.drive_wheel_radius_m
+        self._mu = float(mu)
+        self._r_v = float(speed_std_mps) ** 2
+        self._r_f = float(accel_std_mps2) ** 2
+        self._q_v = float(accel_process_std_mps2) ** 2
+        self._q_kappa_per_m = float(curvature_change_std) ** 2
+        self._p0_kappa = float(initial_curvature_std_rad_per_m) ** 2
+        if front_mass_fraction > 1.0:
+            raise MMAEConfigError(f"front_mass_fraction must be in [0, 1], got {front_mass_fraction!r}")
+        self._rear_offset = float(rear_offset_m)
+        self._hist_step = float(history_step_m)
+        self._hist_len = int(math.ceil(self._rear_offset / self._hist_step)) + 16
+        m_front = float(front_mass_fraction) * veh.empty_mass_kg
+        if self._rear_offset == 0.0:  # point mass: every part on the accelerometer's slope
+            m_front = self._mass.copy()
+        m_rear = self._mass - m_front
+        self._q_th_floor = float(slope_process_floor_radps) ** 2
+        self._p0_th = float(initial_slope_std_rad) ** 2
+        self._p0_v = float(initial_speed_std_mps) ** 2
+        self._floor = float(prob_floor)
+        self._eye = np.broadcast_to(np.eye(3), (self.n_models, 3, 3)).copy()
+        self._gf = G_MPS2 * m_front * self._inv_meff
+        self._gf_mu = self._gf * self._mu
+        self._gr = G_MPS2 * m_rear * self._inv_meff
+        self._gr_mu = self._gr * self._mu
+        self._min_traction_n = float(min_traction_n)
+        self._standstill = float(standstill_speed_mps)
+        self._v_s = float(smooth_speed_mps)
+        self._gate_nis = float(gate_nis)
+        # half-spacing quantisation of the payload grid: the mixture cannot resolve finer than this
+        spacing = self.payloads_kg[1] - self.payloads_kg[0]
+        self._grid_var = spacing**2 / 12.0
+        self.reset()
+
+    # ------------------------------------------------------------------------------------------------------
+    def reset(self) -> None:
+        n = self.n_models
+        self._x = np.zeros((n, 3))
+        self._P = np.zeros((n, 3, 3))
+        self._P[:, 0, 0] = self._p0_v
+        self._P[:, 1, 1] = self._p0_th
+        self._P[:, 2, 2] = self._p0_kappa
+        self._log_prob = np.full(n, -math.log(n))
+        self._n_since_repair = 0
+        self._s_m = 0.0
+        self._hist = np.zeros(self._hist_len)
+        self._hist_first = 2**62  # no history yet
+        self._hist_last = -(2**62)
+        self._v_lp: float | None = None
+        self._f_lp = 0.0
+        self._slope_lp = 0.0
+        self._initialised = False
+        self._last_torque = 0.0
+        self._estimate = self._mixture()
+
+    @property
+    def x(self) -> np.ndarray:
+        return self._x.copy()
+
+    @property
+    def P(self) -> np.ndarray:
+        return self._P.copy()
+
+    @property
+    def probabilities(self) -> np.ndarray:
+        return np.exp(self._log_prob)
+
+    @property
+    def estimate(self) -> Estimate:
+        return self._estimate
+
+    # ------------------------------------------------------------------------------------------------------
+    def _rear_slope(self) -> float:
+        """Slope under the rear section: the slope the accelerometer measured where the rear is now."""
+        if self._rear_offset == 0.0:
+            return math.nan
+        b = math.floor((self._s_m - self._rear_offset) / self._hist_step)
+        if b < self._hist_first or self._hist_last - b >= self._hist_len:
+            return self._slope_lp  # no history that far back: assume one slope under the whole train
+        return float(self._hist[b % self._hist_len])
+
+    def _measure_slope(self, speed_mps: float, accel_mps2: float, dt: float) -> None:
+        """Model-free slope at the accelerometer, ``asin((f - dv/dt) / g)``, low-passed (time constant tau).
+
+        The same first-order low-pass on ``f`` and ``v`` keeps them aligned, and the derivative of the filtered
+        speed is exactly ``(v - v_lp) / tau``. The result lags by about ``tau``, i.e. ``tau v`` metres, which is
+        where it is remembered. It uses no mass hypothesis, so the slope history cannot feed a model's error back.
+        """
+        if self._v_lp is None:
+            self._v_lp, self._f_lp = speed_mps, accel_mps2
+        a = min(dt / _SLOPE_TAU_S, 1.0)
+        dv = (speed_mps - self._v_lp) / _SLOPE_TAU_S
+        self._v_lp += a * (speed_mps - self._v_lp)
+        self._f_lp += a * (accel_mps2 - self._f_lp)
+        self._slope_lp = math.asin(min(max((self._f_lp - dv) / G_MPS2, -0.9), 0.9))
+        self._remember_slope(self._slope_lp, self._s_m - _SLOPE_TAU_S * speed_mps)
+
+    def _remember_slope(self, slope_rad: float, s_m: float) -> None:
+        b = math.floor(s_m / self._hist_step)
+        if self._hist_first > b:  # first sample
+            self._hist_first = self._hist_last = b
+            self._hist[b % self._hist_len] = slope_rad
+        while self._hist_last < b:  # moving forward: fill every bin passed since the last sample
+            self._hist_last += 1
+            self._hist[self._hist_last % self._hist_len] = slope_rad
+
+    def _gravity(self, th: np.ndarray, tanh_v: np.ndarray, th_rear: float) -> tuple[np.ndarray, np.ndarray]:
+        """Gravity + running resistance per unit effective mass of every model, and its derivative in theta."""
+        sin_f, cos_f = np.sin(th), np.cos(th)
+        grav = self._gf * sin_f + self._gf_mu * cos_f * tanh_v
+        d_th = self._gf * cos_f - self._gf_mu * sin_f * tanh_v
+        if math.isnan(th_rear):
+            return grav, d_th
+        return grav + self._gr * math.sin(th_rear) + self._gr_mu * math.cos(th_rear) * tanh_v, d_th
+
+    def _predict(self, torque_nm: float, dt: float, held: bool, speed_abs: float) -> None:
+        x = self._x
+        v, th, kappa = x[:, 0], x[:, 1], x[:, 2]
+        phi = self._eye.copy()
+        if not held:
+            h = dt
+            th_rear = self._rear_slope()
+            sin_f, cos_f = np.sin(th), np.cos(th)
+            drive = (torque_nm / self._radius) * self._inv_meff - self._gf * sin_f
+            res = self._gf_mu * cos_f
+            if not math.isnan(th_rear):
+                drive = drive - self._gr * math.sin(th_rear)
+                res = res + self._gr_mu * math.cos(th_rear)
+            inv_vs = 1.0 / self._v_s
+            # fixed-step RK4 of the speed equation (v-dependent through the smooth resistance); over one 5 ms step
+            # the slope is held, then advanced by kappa times the distance travelled (exact for linear v)
+            k1 = drive - res * np.tanh(v * inv_vs)
+            k2 = drive - res * np.tanh((v + 0.5 * h * k1) * inv_vs)
+            k3 = drive - res * np.tanh((v + 0.5 * h * k2) * inv_vs)
+            k4 = drive - res * np.tanh((v + h * k3) * inv_vs)
+            v_new = v + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            # first-order transition matrix of the linearised model at the prior
+            tanh_v = np.tanh(v * inv_vs)
+            phi[:, 0, 0] += h * (-res * (1.0 - tanh_v * tanh_v) * inv_vs)
+            phi[:, 0, 1] = -h * (self._gf * cos_f - self._gf_mu * sin_f * tanh_v)
+            phi[:, 1, 0] = h * kappa
+            phi[:, 1, 2] = h * v
+            x[:, 1] = th + kappa * (0.5 * h) * (v + v_new)
+            x[:, 0] = v_new
+        # else: held at rest (parking brake / static friction): no motion, only the process noise
+        P = np.matmul(np.matmul(phi, self._P), np.swapaxes(phi, 1, 2))
+        P[:, 0, 0] += self._q_v * dt
+        P[:, 1, 1] += self._q_th_floor * dt
+        P[:, 2, 2] += self._q_kappa_per_m * speed_abs * dt
+        self._P = P
+
+    def _scalar_update(self, resid: np.ndarray, h: np.ndarray | None, r: float) -> tuple[np.ndarray, np.ndarray]:
+        """Scalar EKF update of every model with measurement row ``h`` (n, 3; None = the speed row [1, 0, 0]).
+
+        Returns the log-likelihood and the normalised innovation squared of every model.
+        """
+        P = self._P
+        if h is None:  # the speed row [1, 0, 0]
+            g = P[:, :, 0].copy()
+            s = g[:, 0] + r
+        else:
+            g = np.matmul(P, h[:, :, None])[:, :, 0]
+            s = (h * g).sum(axis=1) + r
+        k = g / s[:, None]
+        self._x += k * resid[:, None]
+        self._P = P - k[:, :, None] * g[:, None, :]
+        nis = resid * resid / s
+        return -0.5 * (nis + np.log(s) + _LOG_2PI), nis
+
+    def _condition(self) -> None:
+        # Both the prediction (Phi P Phi^T + Q) and the update (P - g g^T / s) are symmetric by construction;
+        # round-off can only creep in slowly, so the repair (symmetrise, floor the variances, clip correlations)
+        # runs every ``_REPAIR_EVERY`` samples.
+        self._n_since_repair += 1
+        if self._n_since_repair < _REPAIR_EVERY:
+            return
+        self._n_since_repair = 0
+        P = 0.5 * (self._P + np.swapaxes(self._P, 1, 2))
+        d = np.einsum("nii->ni", P)
+        np.maximum(d, 1e-14, out=d)
+        for a, b in ((0, 1), (0, 2), (1, 2)):
+            lim = 0.999 * np.sqrt(P[:, a, a] * P[:, b, b])
+            c = np.clip(P[:, a, b], -lim, lim)
+            P[:, a, b] = c
+            P[:, b, a] = c
+        self._P = P
+
+    def update(
+        self,
+        torque_nm: float,
+        speed_mps: float,
+        accel_mps2: float,
+        dt_s: float,
+        motor_speed_radps: float = math.nan,
+        gyro_radps: float = math.nan,
+        accel_normal_mps2: float = math.nan,
+    ) -> Estimate:
+        """Process one sample; NaN inputs are treated as missing (``accel_mps2`` is the specific force)."""
+        if not (dt_s >= 0.0) or not math.isfinite(dt_s):
+            raise ValueError(f"mmae: dt_s must be a finite number >= 0, got {dt_s!r}")
+        have_v = math.isfinite(speed_mps)
+        have_f = math.isfinite(accel_mps2)
+        have_t = math.isfinite(torque_nm)
+        if have_t:
+            self._last_torque = float(torque_nm)
+        if not self._initialised:
+            if not have_v:
+                return self._estimate
+            self._x[:, 0] = speed_mps
+            self._initialised = True
+        held = have_v and abs(speed_mps) < self._standstill and abs(self._last_torque) / self._radius < (
+            self._min_traction_n
+        )
+        if dt_s > 0.0:
+            speed = speed_mps if have_v else float(np.exp(self._log_prob) @ self._x[:, 0])
+            self._s_m += speed * dt_s  # odometry for the slope history
+            self._predict(self._last_torque, dt_s, held, abs(speed))
+        if have_v and have_f and self._rear_offset > 0.0 and dt_s > 0.0:
+            self._measure_slope(speed_mps, accel_mps2, dt_s)
+        th_rear = self._rear_slope()
+        # with the torque missing the measurement model is unknown: predict only
+        if not have_t:
+            self._condition()
+            self._estimate = self._mixture()
+            return self._estimate
+        n = self.n_models
+        loglik = np.zeros(n)
+        nis = np.zeros(n)
+        if have_v:
+            ll, n1 = self._scalar_update(speed_mps - self._x[:, 0], None, self._r_v)
+            loglik += ll
+            nis += n1
+        if have_f:
+            v, th = self._x[:, 0], self._x[:, 1]
+            tanh_v = np.tanh(v / self._v_s)
+            grav, d_th = self._gravity(th, tanh_v, th_rear)
+            f_pred = (torque_nm / self._radius) * self._inv_meff - grav + G_MPS2 * np.sin(th)
+            res = self._gf_mu * np.cos(th)
+            if not math.isnan(th_rear):
+                res = res + self._gr_mu * math.cos(th_rear)
+            h = np.zeros((n, 3))
+            h[:, 0] = -res * (1.0 - tanh_v * tanh_v) / self._v_s
+            h[:, 1] = G_MPS2 * np.cos(th) - d_th
+            ll, n2 = self._scalar_update(accel_mps2 - f_pred, h, self._r_f)
+            loglik += ll
+            nis += n2
+        self._condition()
+        informative = (
+            have_v and have_f and not held and abs(torque_nm) / self._radius >= self._min_traction_n
+        )
+        if informative and float(nis.min()) <= self._gate_nis:
+            lp = self._log_prob + loglik
+            p = np.exp(lp - lp.max())
+            p /= p.sum()
+            np.maximum(p, self._floor, out=p)
+            self._log_prob = np.log(p / p.sum())
+        self._estimate = self._mixture()
+        return self._estimate
+
+    def _mixture(self) -> Estimate:
+        prob = np.exp(self._log_prob)
+        payload = float(prob @ self.payloads_kg)
+        dp = self.payloads_kg - payload
+        payload_var = float(prob @ (dp * dp)) + self._grid_var
+        # the slope at the accelerometer = the train's reference point (the plant's truth convention)
+        th = self._x[:, 1]
+        slope = float(prob @ th)
+        dth = th - slope
+        slope_var = float(prob @ (self._P[:, 1, 1] + dth * dth))
+        speed = float(prob @ self._x[:, 0])
+        return Estimate(
+            mass_kg=self.vehicle.empty_mass_kg + payload,
+            slope_rad=slope,
+            mass_std_kg=math.sqrt(payload_var),
+            slope_std_rad=math.sqrt(max(slope_var, 0.0)),
+            extras={"speed_mps": speed, "model_prob_max": float(prob.max())},
+        )
+
+    def mixture_covariance(self) -> np.ndarray:
+        """Mixture covariance of the state: ``sum_j mu_j (P_j + (x_j - x)(x_j - x)^T)``."""
+        prob = self.probabilities
+        prob = prob / prob.sum()
+        x = self.x
+        mean = prob @ x
+        d = x - mean
+        return np.einsum("j,jab->ab", prob, self.P) + np.einsum("j,ja,jb->ab", prob, d, d)
+
+
+__all__ = ["MMAEConfigError", "MMAEEstimator"]

@@ -1,0 +1,295 @@
+"""``sf-kf``: mass and slope from the accelerometer's specific force — the project's improvement on paper 000.
+
+The paper feeds its model with "acceleration" as if it were dv/dt and never uses what a longitudinal
+accelerometer really measures, the specific force ``f = dv/dt + g sin θ`` (spec §4). Used as such, ``f`` makes
+the slope nearly directly observable and decouples it from the mass:
+
+**Slope layer** — a kinematic Kalman filter on ``x = [v, θ]`` driven by the accelerometer, corrected by the
+ground speed::
+
+    v_k = v_{k−1} + Δt (f_{k−1} − g sin θ_{k−1}),   θ_k = θ_{k−1} + random walk,   z_k = v_k + noise
+
+It needs neither the mass, nor the torque, nor μ, so mass errors do not leak into the slope, and it works at
+standstill (``f = g sin θ`` there). Its weak point is accelerometer *bias*: a bias ``b`` reads as a slope error
+``b/g`` (0.1 m/s² → 0.58°), which no speed/torque-only method has. Vibration of the swinging load and couplers
+is zero-mean and averaged away by the filter.
+
+**Mass layer** — from ``T/r = M g (sin θ + μ cos θ) + (M + m_rot) dv/dt``::
+
+    (T/r − m_rot a) / M_ref = [f,  g cos θ̂] · [M/M_ref,  μ M/M_ref]ᵀ
+
+a two-parameter Kalman/RLS regression (λ = 1 with a tiny random walk; mass is constant during a run) that
+estimates the mass *and* the running resistance μ (prior: the vehicle's nominal μ ± ``mu_prior_std``). Every
+sample with traction carries mass information — not only accelerations as in the paper's regression, where
+``φ₂`` is a constant and a grade change at constant speed cannot be told from a mass change. Both sides go through
+the same second-order low-pass; ``a`` is the low-passed derivative of the measured speed. Samples without
+traction (coasting, braking: the brake force is not measured) or at standstill are skipped.
+
+Gives mass, slope and μ (``extras["mu"]``, ``extras["mu_std"]``), each with 1-sigma standard deviations. Robust
+like the others: spikes gated (physically impossible jumps of the inputs, innovation gate on speed), NaN samples
+predict only, mass clamped to the vehicle's range, covariances symmetric PD (Joseph form).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import Any, ClassVar
+
+from uuom_gym.vehicle import G_MPS2, VehicleParams
+
+from .base import Estimate, Estimator
+from .filters import LowPass2, SpikeGate, check_dt
+from .rls import RegressionFrontEnd
+
+__all__ = ["SpecificForceKF"]
+
+
+class SpecificForceKF(Estimator):
+    """``sf-kf``: accelerometer-driven slope Kalman filter + mass/μ regression on the specific force.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams, optional
+    speed_std_mps : float
+        Ground-speed measurement noise (1 sigma).
+    accel_std_mps2 : float
+        Accelerometer noise + vibration, as process noise of the speed equation.
+    grade_rate_std_rps : float
+        Random-walk intensity of the slope (variance ``std² Δt`` per step while moving).
+    cutoff_hz : float
+        Low-pass corner of the mass regression (both sides).
+    mu_prior_std : float
+        Prior 1-sigma of the running-resistance coefficient around the vehicle's nominal value.
+    residual_std_mps2 : float
+        Effective (correlation-inflated) residual std of the mass regression.
+    gate_sigma : float
+        Speed-innovation gate.
+    """
+
+    name: ClassVar[str] = "sf-kf"
+    provides: ClassVar[frozenset[str]] = frozenset({"mass", "slope", "mu"})
+
+    def __init__(self, vehicle: VehicleParams | None = None, *, speed_std_mps: float = 0.01,
+                 accel_std_mps2: float = 0.3, grade_rate_std_rps: float = 0.01, cutoff_hz: float = 1.0,
+                 mu_prior_std: float = 0.01, residual_std_mps2: float = 0.3, gate_sigma: float = 6.0,
+                 prior_mass_kg: float | None = None, front_mass_kg: float | None = None,
+                 rear_offset_m: float | None = None, history_step_m: float = 0.25, **options: Any) -> None:
+        super().__init__(vehicle, **options)
+        for name, value in (("speed_std_mps", speed_std_mps), ("accel_std_mps2", accel_std_mps2),
+                            ("grade_rate_std_rps", grade_rate_std_rps), ("cutoff_hz", cutoff_hz),
+                            ("mu_prior_std", mu_prior_std), ("residual_std_mps2", residual_std_mps2),
+                            ("gate_sigma", gate_sigma)):
+            if not (value > 0.0 and math.isfinite(value)):
+                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        v = self.vehicle
+        # where the train's mass lies: the drive section (with the sensors) carries front_mass_kg at the sensors'
+        # position; the rest (lifting beams, rear cab, the load) sits rear_offset_m behind it
+        self.front_mass = 0.55 * v.empty_mass_kg if front_mass_kg is None else float(front_mass_kg)
+        self.rear_offset = 0.5 * v.length_m if rear_offset_m is None else float(rear_offset_m)
+        if not (0.0 <= self.front_mass <= v.empty_mass_kg):
+            raise ValueError(f"front_mass_kg must be in [0, empty_mass_kg], got {front_mass_kg!r}")
+        if not (self.rear_offset >= 0 and math.isfinite(self.rear_offset)):
+            raise ValueError(f"rear_offset_m must be a finite number >= 0, got {rear_offset_m!r}")
+        if not (history_step_m > 0 and math.isfinite(history_step_m)):
+            raise ValueError(f"history_step_m must be a finite number > 0, got {history_step_m!r}")
+        self.ds = float(history_step_m)
+        self.n_hist = max(1, int(round(self.rear_offset / self.ds)))
+        self.R_v = speed_std_mps**2
+        self.acc_var = accel_std_mps2**2
+        self.grade_var_rate = grade_rate_std_rps**2
+        self.gate2 = gate_sigma**2
+        self.max_slope = math.radians(v.max_grade_deg + 5.0)
+        self.m_rot = v.rotating_mass_kg
+        self.mu0 = v.running_resistance
+        self.m_ref = v.empty_mass_kg + 0.5 * v.rated_load_kg
+        self.prior_mass = float(self.m_ref if prior_mass_kg is None else prior_mass_kg)
+        if not (v.empty_mass_kg <= self.prior_mass <= v.max_mass_kg):
+            raise ValueError(f"prior_mass_kg must lie in [{v.empty_mass_kg}, {v.max_mass_kg}], got {self.prior_mass}")
+        self.c_min = v.empty_mass_kg / self.m_ref
+        self.c_max = v.max_mass_kg / self.m_ref
+        c0 = self.prior_mass / self.m_ref
+        self.P0_c = (0.5 * (v.max_mass_kg - v.empty_mass_kg) / self.m_ref) ** 2
+        self.P0_d = (mu_prior_std * c0) ** 2 + (self.mu0**2) * self.P0_c
+        self.P0_cd = self.mu0 * self.P0_c  # d = μ c: prior correlated with c through the nominal μ
+        self.R_m = residual_std_mps2**2
+        self.slope_ready_var = math.radians(1.0) ** 2
+        self.front = RegressionFrontEnd(v, cutoff_hz)
+        self.lp_sin = LowPass2(cutoff_hz)
+        self.lp_cos = LowPass2(cutoff_hz)
+        self.gate_f = SpikeGate(max_rate=400.0, noise_band=3.0, max_abs=3.0 * G_MPS2)
+        self.gate_v = SpikeGate(max_rate=8.0, noise_band=0.1, max_abs=20.0)
+        self.reset()
+
+    def reset(self) -> None:
+        # slope layer
+        self.v = math.nan
+        self.th = 0.0
+        self.P11 = self.R_v
+        self.P12 = 0.0
+        self.P22 = 0.1**2
+        self.f_in = 0.0
+        self.f_ok = False
+        self.rejected = 0
+        # mass layer: c = M/M_ref, d = μ M/M_ref
+        self.c = self.prior_mass / self.m_ref
+        self.d = self.mu0 * self.c
+        self.Pc, self.Pcd, self.Pd = self.P0_c, self.P0_cd, self.P0_d
+        self.front.reset()
+        self.lp_sin.reset()
+        self.lp_cos.reset()
+        # slope history along the distance travelled (for the slope under the whole train)
+        self.s_m = 0.0
+        self.next_s = 0.0
+        self.hist: deque[float] = deque()
+        self.gate_f.reset()
+        self.gate_v.reset()
+
+    def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
+               motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
+               accel_normal_mps2: float = math.nan) -> Estimate:
+        if not (dt_s > 0.0 and dt_s < math.inf):
+            check_dt(dt_s)
+        f = self.gate_f(accel_mps2, dt_s)
+        z = self.gate_v(speed_mps, dt_s)
+        self._slope_step(f, z, dt_s)
+        th_eff = self._train_slope(dt_s)
+        sf = self.lp_sin(math.sin(th_eff), dt_s)
+        cf = self.lp_cos(math.cos(th_eff), dt_s)
+        # no mass update before the slope layer has converged (its slope enters the regression)
+        if self.front.step(torque_nm, speed_mps, dt_s) and self.P22 < self.slope_ready_var:
+            self._mass_step(sf, cf)
+        return self.estimate
+
+    def _train_slope(self, dt: float) -> float:
+        """Mass-weighted slope under the train: the drive section at the current slope, the rest of the mass at
+        the slope measured ``rear_offset_m`` of travel ago.
+
+        The train is 18 m long: in a transition its rear is still on the old grade while the sensors (drive
+        section) are on the new one, and gravity acts on all of it.
+        """
+        v = self.v
+        th = self.th
+        if v == v and v > 0.0:
+            self.s_m += v * dt
+        h = self.hist
+        if not h:
+            h.append(th)
+            self.next_s = self.s_m + self.ds
+        elif len(h) == 1 and self.s_m < self.next_s:
+            # not moved yet: the track behind the start is unknown, take the slope the train stands on
+            h[0] = th
+        while self.s_m >= self.next_s:
+            h.append(th)
+            self.next_s += self.ds
+            if len(h) > self.n_hist:
+                h.popleft()
+        # before the train has travelled rear_offset_m, the track behind the start is taken as the first slope seen
+        th_rear = h[0]
+        w = self.front_mass / (self.c * self.m_ref)
+        return w * th + (1.0 - w) * th_rear
+
+    # slope layer ---------------------------------------------------------------------------------------------
+    def _slope_step(self, f: float, z: float, dt: float) -> None:
+        v = self.v
+        if v != v:
+            if z == z:
+                self.v = z
+            if f == f:
+                self.f_in = f
+                self.f_ok = True
+            return
+        th = self.th
+        c = math.cos(th)
+        acc = self.f_in - G_MPS2 * math.sin(th)
+        self.v = v + dt * acc
+        f12 = -dt * G_MPS2 * c
+        P11, P12, P22 = self.P11, self.P12, self.P22
+        # a held (missing) accelerometer sample is a worse input: more process noise
+        q11 = self.acc_var * dt * dt * (1.0 if self.f_ok else 25.0)
+        q22 = self.grade_var_rate * dt
+        P11 = P11 + 2.0 * f12 * P12 + f12 * f12 * P22 + q11
+        P12 = P12 + f12 * P22
+        P22 = min(P22 + q22, 0.1)
+        if f == f:
+            self.f_in = f
+            self.f_ok = True
+        else:
+            self.f_ok = False
+        if z == z:
+            eps = z - self.v
+            S = P11 + self.R_v
+            if eps * eps > self.gate2 * S and self.rejected < 40:
+                self.rejected += 1
+            else:
+                if self.rejected >= 40:  # persistent: the state was wrong, restart speed there
+                    self.v = z
+                    eps = 0.0
+                self.rejected = 0
+                R = self.R_v
+                k1 = P11 / S
+                k2 = P12 / S
+                self.v += k1 * eps
+                th = self.th + k2 * eps
+                ms = self.max_slope
+                self.th = ms if th > ms else (-ms if th < -ms else th)
+                a = 1.0 - k1
+                n11 = a * a * P11 + k1 * k1 * R
+                n12 = a * (P12 - k2 * P11) + k1 * k2 * R
+                n22 = k2 * k2 * P11 - 2.0 * k2 * P12 + P22 + k2 * k2 * R
+                P11, P12, P22 = n11, n12, n22
+        if P11 < 1e-14:
+            P11 = 1e-14
+        if P22 < 1e-14:
+            P22 = 1e-14
+        lim = 0.999 * math.sqrt(P11 * P22)
+        if P12 > lim:
+            P12 = lim
+        elif P12 < -lim:
+            P12 = -lim
+        self.P11, self.P12, self.P22 = P11, P12, P22
+
+    # mass layer ----------------------------------------------------------------------------------------------
+    def _mass_step(self, sin_lp: float, cos_lp: float) -> None:
+        fe = self.front
+        y = (fe.force_n - self.m_rot * fe.accel_mps2) / self.m_ref
+        # specific force of the whole train: its acceleration plus gravity along the slope under it
+        h1 = fe.accel_mps2 + G_MPS2 * sin_lp
+        h2 = G_MPS2 * cos_lp
+        Pc, Pcd, Pd = self.Pc + 1e-12, self.Pcd, self.Pd + 1e-14  # tiny random walk: never fully rigid
+        e = y - h1 * self.c - h2 * self.d
+        Ph1 = Pc * h1 + Pcd * h2
+        Ph2 = Pcd * h1 + Pd * h2
+        S = self.R_m + h1 * Ph1 + h2 * Ph2
+        if e * e > 100.0 * S:  # a gross outlier of the regression (spike that passed the input gates)
+            return
+        k1 = Ph1 / S
+        k2 = Ph2 / S
+        c = self.c + k1 * e
+        d = self.d + k2 * e
+        Pc -= k1 * Ph1
+        Pcd -= k1 * Ph2
+        Pd -= k2 * Ph2
+        if Pc < 1e-14:
+            Pc = 1e-14
+        if Pd < 1e-16:
+            Pd = 1e-16
+        lim = 0.999 * math.sqrt(Pc * Pd)
+        if Pcd > lim:
+            Pcd = lim
+        elif Pcd < -lim:
+            Pcd = -lim
+        self.Pc, self.Pcd, self.Pd = Pc, Pcd, Pd
+        self.c = min(max(c, self.c_min), self.c_max)
+        # μ stays physical: 0 <= μ <= 0.2
+        self.d = min(max(d, 0.0), 0.2 * self.c)
+
+    # results -------------------------------------------------------------------------------------------------
+    @property
+    def estimate(self) -> Estimate:
+        c = self.c
+        mu = self.d / c
+        # first-order std of μ = d/c
+        var_mu = (self.Pd - 2.0 * mu * self.Pcd + mu * mu * self.Pc) / (c * c)
+        return Estimate(c * self.m_ref, self.th, math.sqrt(self.Pc) * self.m_ref, math.sqrt(self.P22),
+                        {"mu": mu, "mu_std": math.sqrt(max(var_mu, 0.0))})

@@ -1,0 +1,81 @@
+"""The safety shield: command filtering from the estimates, and the env wrapper."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import uuom_gym  # noqa: F401
+from agents.controllers import ControlInput
+from agents.metrics import EpisodeAccumulator
+from agents.shield import SafetyShield, ShieldParams, ShieldWrapper
+from uuom_gym.limits import speed_limit_mps
+from uuom_gym.vehicle import DEFAULT_VEHICLE as V
+
+
+def _x(speed, mass=26_000.0, slope_deg=0.0, mass_std=0.0, slope_std_deg=0.0, to_go=100.0):
+    return ControlInput(
+        position_m=0.0,
+        speed_mps=speed,
+        distance_to_go_m=to_go,
+        est_mass_kg=mass,
+        est_mass_std_kg=mass_std,
+        est_slope_rad=math.radians(slope_deg),
+        est_slope_std_rad=math.radians(slope_std_deg),
+        dt_s=0.1,
+    )
+
+
+def test_full_traction_is_cut_near_the_limit_and_brakes_above_it():
+    lim = speed_limit_mps(V, 26_000.0, 0.0)
+    # (a fresh shield per call: it keeps a disturbance estimate from one step to the next)
+    assert SafetyShield(V).filter(1.0, _x(0.5 * lim)) < 0.2  # the sway-safe acceleration bound
+    assert SafetyShield(V).filter(1.0, _x(lim)) < 0.0  # at the limit the cap (with margins) is exceeded: brake
+    assert SafetyShield(V).filter(-0.01, _x(0.5 * lim)) == pytest.approx(-0.01)  # a gentle brake passes
+    assert SafetyShield(V).filter(-1.0, _x(0.5 * lim)) > -0.1  # below the cap, no sway-exciting hard brake
+
+
+def test_uncertainty_lowers_the_cap():
+    sh = SafetyShield(V)
+    sure = sh.speed_cap(_x(0.5, slope_deg=-8.0))
+    unsure = sh.speed_cap(_x(0.5, slope_deg=-8.0, mass_std=4000.0, slope_std_deg=3.0))
+    assert unsure < sure
+
+
+def test_station_stop_and_rollback_guard():
+    assert SafetyShield(V).filter(1.0, _x(0.3, to_go=-0.5)) == -1.0
+    # standing on an up-grade away from the station: a brake request is raised to a holding traction
+    assert SafetyShield(V).filter(-1.0, _x(0.0, slope_deg=8.0)) > 0.0
+
+
+def test_nan_command_becomes_brake_and_params_are_checked():
+    assert SafetyShield(V).filter(float("nan"), _x(0.5)) <= 0.0
+    with pytest.raises(ValueError, match="k_sigma"):
+        ShieldParams(k_sigma=-1.0)
+
+
+def test_shield_alone_drives_full_throttle_safely():
+    env = ShieldWrapper(gym.make("UUOM-Track-v0", observer="oracle", track_length_m=(60.0, 120.0)))
+    for seed in (5, 6):
+        obs, info = env.reset(seed=seed)
+        acc = EpisodeAccumulator()
+        acc.start(info)
+        while True:
+            obs, _, term, trunc, info = env.step(np.array([1.0], dtype=np.float32))
+            acc.add(info)
+            if term or trunc:
+                break
+        s = acc.finish(info)
+        assert s.success, s.termination
+        assert not s.overspeed_trip
+        assert s.violations["speed_limit"] == 0 and s.violations["sway"] == 0
+        assert info["shield_interventions"] > 0
+
+
+def test_wrapper_needs_reset():
+    env = ShieldWrapper(gym.make("UUOM-Track-v0", observer="oracle"))
+    with pytest.raises(gym.error.ResetNeeded):
+        env.step(np.array([0.0], dtype=np.float32))

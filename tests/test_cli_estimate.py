@@ -1,0 +1,182 @@
+"""Tests of ``uuom-estimate`` (estimators.cli): the contract of shared/spec/trace-format.md."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import estimators
+from estimators.cli import EXIT_BAD_INPUT, main, summarize
+from estimators.synthetic import synthetic_trace
+from uuom_gym.trace import read_trace_csv, write_trace_csv
+
+HEADER = "t_s,torque_nm,speed_mps,accel_mps2,mass_kg,slope_deg"
+
+
+@pytest.fixture(scope="module")
+def good_trace(tmp_path_factory) -> Path:
+    p = tmp_path_factory.mktemp("traces") / "run.csv"
+    write_trace_csv(synthetic_trace("section1", seed=2, duration_s=20.0), p)
+    return p
+
+
+def _run(capsys, *argv: str) -> tuple[int, str, str]:
+    rc = main(list(argv))
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def _bad(capsys, *argv: str) -> str:
+    rc, out, err = _run(capsys, *argv)
+    assert rc == EXIT_BAD_INPUT
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err  # one line
+    assert lines[0].startswith("uuom-estimate: error: ")
+    return lines[0]
+
+
+def test_writes_estimates_and_summary(good_trace: Path, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "est.csv"
+    rc, stdout, err = _run(capsys, str(good_trace), "--estimator", "sf-kf", "--out", str(out))
+    assert rc == 0, err
+    text = out.read_text().splitlines()
+    assert text[0] == "t_s,mass_kg,slope_deg,mass_std_kg,slope_std_deg"
+    assert len(text) - 1 == len(read_trace_csv(good_trace))  # one row per input row
+    assert "RMSE" in stdout and "%" in stdout and "max |error|" in stdout
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]  # atomic: no temp file left
+
+
+def test_json_summary_matches_direct_computation(good_trace: Path, tmp_path: Path, capsys) -> None:
+    rc, stdout, _ = _run(capsys, str(good_trace), "--estimator", "dffrls-aekf", "--json", "--settle-s", "5")
+    assert rc == 0
+    s = json.loads(stdout)
+    tr = read_trace_csv(good_trace)
+    series = estimators.make("dffrls-aekf").run(tr)
+    m = tr["t_s"] >= 5.0
+    rmse = math.sqrt(np.mean((series.mass_kg[m] - tr["mass_kg"][m]) ** 2))
+    assert s["mass"]["rmse_kg"] == pytest.approx(rmse)
+    assert s["mass"]["rmse_pct"] == pytest.approx(100 * math.sqrt(np.mean((series.mass_kg[m] / tr["mass_kg"][m] - 1) ** 2)))
+    smax = np.max(np.abs(series.slope_deg[m] - tr["slope_deg"][m]))
+    assert s["slope"]["max_abs_error_deg"] == pytest.approx(smax)
+    assert s["settle_s"] == 5.0 and s["estimator"] == "dffrls-aekf"
+
+
+def test_output_roundtrip_matches_run(good_trace: Path, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "e.csv"
+    assert _run(capsys, str(good_trace), "--estimator", "ffrls", "--out", str(out))[0] == 0
+    rows = np.genfromtxt(out, delimiter=",", names=True)
+    series = estimators.make("ffrls").run(read_trace_csv(good_trace))
+    np.testing.assert_allclose(rows["mass_kg"], series.mass_kg)
+    np.testing.assert_allclose(rows["slope_deg"], series.slope_deg)
+
+
+def test_list(capsys) -> None:
+    rc, out, _ = _run(capsys, "--list")
+    assert rc == 0
+    names = out.split()
+    for n in ("rls", "ffrls", "dffrls", "ekf", "rls-ekf", "dffrls-aekf", "sf-kf"):
+        assert n in names
+
+
+def test_no_truth_no_summary(tmp_path: Path, capsys) -> None:
+    p = tmp_path / "nt.csv"
+    p.write_text("t_s,torque_nm,speed_mps,accel_mps2\n0,100,0,0\n0.005,100,0,0\n")
+    rc, out, _ = _run(capsys, str(p), "--json")
+    assert rc == 0
+    s = json.loads(out)
+    assert "mass" not in s and "slope" not in s
+
+
+# --- bad input: one line naming file, line and column; non-zero exit; output untouched ------------------------
+
+def _write(tmp_path: Path, name: str, text: str) -> Path:
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+@pytest.mark.parametrize(
+    "text, line, what",
+    [
+        ("t_s,torque_nm,speed_mps\n0,1,2\n", 1, "accel_mps2"),  # missing required column
+        (HEADER + "\n0,1,2,3,26000,0\n0.005,1,abc,3,26000,0\n", 3, "speed_mps"),  # text in a number column
+        (HEADER + "\n0,1,2,3,26000,0\n0,1,2,3,26000,0\n", 3, "t_s"),  # time not increasing
+        (HEADER + "\n0,1,2,3,26000,0\n0.005,nan,2,3,26000,0\n", 3, "torque_nm"),  # NaN
+        (HEADER + "\n0,1,2,3,26000,0\n0.005,1,2,inf,26000,0\n", 3, "accel_mps2"),  # infinite
+        ("", 1, "empty"),  # empty file
+        (HEADER + "\n", 2, "empty"),  # header only
+    ],
+)
+def test_bad_trace(tmp_path: Path, capsys, text: str, line: int, what: str) -> None:
+    p = _write(tmp_path, "bad.csv", text)
+    out = tmp_path / "out.csv"
+    out.write_text("previous")
+    msg = _bad(capsys, str(p), "--out", str(out))
+    assert f"{p}:{line}:" in msg
+    assert what in msg
+    assert out.read_text() == "previous"  # written whole or not at all
+
+
+def test_unknown_estimator(good_trace: Path, capsys) -> None:
+    msg = _bad(capsys, str(good_trace), "--estimator", "kalman-magic")
+    assert "kalman-magic" in msg and "dffrls-aekf" in msg
+
+
+@pytest.mark.parametrize(
+    "toml, line, key",
+    [
+        ("[vehicle]\nempty_mass_kg = 16000.0\nwheel_size = 3\n", 3, "wheel_size"),  # unknown key
+        ("[vehicle]\nempty_mass_kg = 16000.0\ndrive_wheel_radius_m = 0.0\n", 3, "drive_wheel_radius_m"),
+        ("[vehicle]\n\nempty_mass_kg = -5.0\n", 3, "empty_mass_kg"),  # negative mass
+        ("[vehicle]\ncarrying_wheel_radius_m = -0.1\n", 2, "carrying_wheel_radius_m"),
+        ("[vehicle]\nrunning_resistance = \"high\"\n", 2, "running_resistance"),
+    ],
+)
+def test_bad_vehicle(good_trace: Path, tmp_path: Path, capsys, toml: str, line: int, key: str) -> None:
+    v = _write(tmp_path, "veh.toml", toml)
+    msg = _bad(capsys, str(good_trace), "--vehicle", str(v))
+    assert f"{v}:{line}:" in msg and key in msg
+
+
+def test_bad_vehicle_syntax_and_missing(good_trace: Path, tmp_path: Path, capsys) -> None:
+    v = _write(tmp_path, "veh.toml", "[vehicle\n")
+    msg = _bad(capsys, str(good_trace), "--vehicle", str(v))
+    assert re.search(rf"{re.escape(str(v))}:1: column \d+", msg)
+    msg = _bad(capsys, str(good_trace), "--vehicle", str(tmp_path / "nope.toml"))
+    assert "nope.toml" in msg
+
+
+def test_good_vehicle_file_is_used(good_trace: Path, tmp_path: Path, capsys) -> None:
+    v = _write(tmp_path, "veh.toml", "[vehicle]\nempty_mass_kg = 20000.0\nrated_load_kg = 10000.0\n")
+    rc, out, _ = _run(capsys, str(good_trace), "--vehicle", str(v), "--estimator", "ffrls", "--json")
+    assert rc == 0
+    # the synthetic run has 26 t; the vehicle file's range [20 t, 32 t] still contains it
+    assert json.loads(out)["mass"]["rmse_kg"] >= 0
+
+
+def test_missing_trace_and_bad_settle(tmp_path: Path, capsys) -> None:
+    msg = _bad(capsys, str(tmp_path / "none.csv"))
+    assert "none.csv" in msg
+    p = _write(tmp_path, "t.csv", HEADER + "\n0,1,2,3,26000,0\n")
+    assert "--settle-s" in _bad(capsys, str(p), "--settle-s", "-1")
+    assert "directory" in _bad(capsys, str(p), "--out", str(tmp_path / "no" / "dir" / "o.csv"))
+
+
+def test_summary_after_settle_only() -> None:
+    tr = synthetic_trace("level", seed=1, duration_s=12.0)
+    series = estimators.make("rls").run(tr)
+    s = summarize(tr, series, settle_s=100.0)
+    assert s["mass"] is None and s["slope"] is None and s["samples_after_settle"] == 0
+
+
+def test_console_script_exists() -> None:
+    # the console script declared in pyproject resolves to estimators.cli:main
+    import importlib.metadata as md
+
+    eps = [e for e in md.entry_points(group="console_scripts") if e.name == "uuom-estimate"]
+    assert eps and eps[0].value == "estimators.cli:main"

@@ -1,0 +1,133 @@
+"""Reference controllers: the minimum-time profile, the oracle controller, the rule-based controller."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import uuom_gym  # noqa: F401 - registers the env
+from agents.controllers import (
+    ControlInputError,
+    OracleController,
+    RuleBasedController,
+    control_input_from_info,
+    control_input_from_obs,
+    force_to_command,
+)
+from agents.metrics import EpisodeAccumulator
+from agents.speed_profile import ProfileError, min_time_profile
+from uuom_gym.limits import speed_limit_mps
+from uuom_gym.sim.track import random_track
+from uuom_gym.vehicle import DEFAULT_VEHICLE as V
+
+SHORT = {"track_length_m": (60.0, 120.0)}
+
+
+def _drive(env, ctrl, seed):
+    obs, info = env.reset(seed=seed)
+    ctrl.reset(env, info)
+    acc = EpisodeAccumulator()
+    acc.start(info)
+    while True:
+        obs, _, term, trunc, info = env.step(ctrl.act(obs, info))
+        acc.add(info)
+        if term or trunc:
+            return acc.finish(info), info
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_profile_respects_the_limit_and_stops(seed):
+    rng = np.random.default_rng(seed)
+    load = float(rng.uniform(0, V.rated_load_kg))
+    track = random_track(rng, (150.0, 400.0), load_kg=load)
+    mass = V.empty_mass_kg + load
+    p = min_time_profile(V, mass, track, speed_margin=0.0)
+    lim = np.array([speed_limit_mps(V, mass, float(t)) for t in track.slope_at(p.s_m)])
+    assert p.feasible
+    assert np.all(p.speed_mps <= lim + 1e-9)
+    assert p.speed_mps[0] == 0.0 and p.speed_mps[-1] == 0.0
+    assert np.all(np.abs(np.diff(p.speed_mps**2) / (2 * np.diff(p.s_m))) <= 0.4 + 1e-6)  # sway-safe |a|
+    # Physically sensible: never faster than the load limit everywhere, so at least length / v_load.
+    assert p.trip_time_s > track.length_m / speed_limit_mps(V, mass, 0.0)
+
+
+def test_heavier_train_is_not_faster():
+    rng = np.random.default_rng(7)
+    track = random_track(rng, 300.0, load_kg=V.rated_load_kg)
+    t_light = min_time_profile(V, V.empty_mass_kg, track).trip_time_s
+    t_heavy = min_time_profile(V, V.rated_mass_kg, track).trip_time_s
+    assert t_heavy > t_light
+
+
+def test_profile_input_errors_are_named():
+    track = random_track(np.random.default_rng(0), 100.0)
+    with pytest.raises(ProfileError, match="mass_kg"):
+        min_time_profile(V, -1.0, track)
+    with pytest.raises(ProfileError, match="stop_s_m"):
+        min_time_profile(V, 20_000.0, track, stop_s_m=1e6)
+    with pytest.raises(ProfileError, match="track"):
+        min_time_profile(V, 20_000.0)
+
+
+def test_force_to_command_matches_plant_convention():
+    assert force_to_command(V, 40_000.0, 0.0) == pytest.approx(0.5)
+    # power limit: at 1.5 m/s only 40 kN are available, so 20 kN is half of it
+    assert force_to_command(V, 20_000.0, 1.5) == pytest.approx(0.5)
+    assert force_to_command(V, -60_000.0, 1.0) == pytest.approx(-0.5)
+    assert force_to_command(V, 1e9, 1.0) == 1.0 and force_to_command(V, -1e9, 1.0) == -1.0
+
+
+@pytest.mark.parametrize("seed", [11, 12, 13])
+def test_oracle_controller_never_breaks_a_rule(seed):
+    env = gym.make("UUOM-Track-v0", observer="oracle", **SHORT)
+    summary, info = _drive(env, OracleController(env.unwrapped.vehicle), seed)
+    assert summary.success, summary.termination
+    assert summary.violations == {r: 0 for r in summary.violations}, summary.violations
+    assert summary.cost == 0.0
+    assert summary.max_overspeed_mps < 0.0
+
+
+def test_oracle_trip_time_matches_its_plan():
+    env = gym.make("UUOM-Track-v0", observer="oracle", **SHORT)
+    ctrl = OracleController(env.unwrapped.vehicle)
+    summary, _ = _drive(env, ctrl, 21)
+    assert summary.success
+    assert summary.trip_time_s == pytest.approx(ctrl.profile.trip_time_s, rel=0.1)
+
+
+def test_rule_based_with_true_estimates_arrives_safely_and_not_faster_than_oracle():
+    env = gym.make("UUOM-Track-v0", observer="oracle", **SHORT)
+    oracle, _ = _drive(env, OracleController(env.unwrapped.vehicle), 31)
+    rule, _ = _drive(env, RuleBasedController(env.unwrapped.vehicle), 31)
+    assert oracle.success and rule.success
+    assert not rule.overspeed_trip
+    assert rule.trip_time_s >= 0.98 * oracle.trip_time_s
+
+
+def test_observation_decoding_matches_info():
+    env = gym.make("UUOM-Track-v0", observer="oracle", **SHORT)
+    obs, info = env.reset(seed=3)
+    for _ in range(30):
+        obs, _, _, _, info = env.step(np.array([0.4], dtype=np.float32))
+    x = control_input_from_obs(obs, env.unwrapped.vehicle, info["track_length_m"], 0.1)
+    y = control_input_from_info(info, 0.1)
+    assert x.est_mass_kg == pytest.approx(info["true_mass_kg"], rel=1e-4)
+    assert x.est_slope_rad == pytest.approx(info["true_slope_rad"], abs=1e-4)
+    assert x.speed_mps == pytest.approx(info["speed_mps"], abs=0.05)
+    assert x.distance_to_go_m == pytest.approx(y.distance_to_go_m, abs=0.5)
+
+
+def test_bad_inputs_are_named():
+    with pytest.raises(ControlInputError, match="distance_to_go_m"):
+        control_input_from_info({"position_m": 1.0, "speed_mps": 0.0, "est_mass_kg": 2e4, "est_slope_rad": 0.0}, 0.1)
+    with pytest.raises(ControlInputError, match="observation"):
+        control_input_from_obs(np.zeros(3), V, 100.0, 0.1)
+    with pytest.raises(ControlInputError, match="reset"):
+        OracleController(V).command_at(0.0, 0.0)
+    obs = np.zeros(12)
+    obs[0] = math.nan
+    with pytest.raises(ControlInputError):
+        control_input_from_obs(obs, V, 100.0, 0.1)

@@ -1,0 +1,285 @@
+"""Configuration of ``UUOM-Track-v0``: the documented defaults, and merging/validation of user overrides.
+
+Every key of :func:`default_config` can be overridden through ``gym.make("UUOM-Track-v0", key=value)`` (or the
+``config=`` dict). Unknown keys raise :class:`ConfigError` naming them; a value of the wrong kind or out of its
+range raises :class:`ConfigError` naming the key. :data:`CONFIG_DOCS` holds one line per key (used by the docs).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from typing import Any, Mapping
+
+SCENARIOS: tuple[str, ...] = ("section1", "section2", "roadtest")
+"""The paper's fixed runs (spec §3): the track, the load and the nominal conditions are fixed."""
+
+RULES: tuple[str, ...] = ("speed_limit", "adhesion", "rollback", "sway", "overspeed_trip", "stall")
+"""Safety rules of spec §6, the keys of ``info["violations"]`` and of ``cost_weights``."""
+
+REWARD_TERMS: tuple[str, ...] = ("progress", "arrival", "time", "energy", "safety", "failure")
+"""Reward terms, the keys of ``info["rewards"]``."""
+
+
+class ConfigError(ValueError):
+    """A configuration key that does not exist, or a value it cannot take."""
+
+
+def default_config() -> dict[str, Any]:
+    """The default configuration of ``UUOM-Track-v0`` (a fresh dict each call; see :data:`CONFIG_DOCS`)."""
+    return {
+        # --- vehicle and timing -----------------------------------------------------------------------------
+        "vehicle": None,
+        "policy_hz": 10.0,
+        "physics_hz": 200.0,
+        # --- observation layer --------------------------------------------------------------------------------
+        "observer": "dffrls-aekf",
+        "observer_options": {},
+        # --- task -------------------------------------------------------------------------------------------
+        "scenario": None,
+        "track_length_m": (100.0, 300.0),
+        "max_grade_deg": 15.0,
+        "allow_infeasible": False,
+        "feasibility_margin": 0.85,
+        "track": None,
+        "stop_tolerance_m": 3.0,
+        "stop_speed_mps": 0.05,
+        "max_episode_s": None,
+        # --- randomisation per reset(seed) ------------------------------------------------------------------
+        "load_kg": None,
+        "load_fraction_range": (0.0, 1.0),
+        "running_resistance_range": (0.015, 0.03),
+        "wet_probability": 0.3,
+        "adhesion_dry_range": (0.30, 0.40),
+        "adhesion_wet_range": (0.15, 0.20),
+        "wheel_wear_range_m": (0.0, 0.006),
+        "sensor_noise_scale_range": (0.5, 1.5),
+        "sensor_bias_scale_range": (0.0, 1.0),
+        "sensor_faults": None,
+        # --- safety rules (spec §6) ---------------------------------------------------------------------------
+        "overspeed_trip_margin_mps": 0.2,
+        "slip_grace_s": 0.5,
+        "rollback_speed_mps": 0.02,
+        "sway_limit_deg": 10.0,
+        "stall_speed_mps": 0.05,
+        "cost_weights": {
+            "speed_limit": 10.0,
+            "adhesion": 1.0,
+            "rollback": 10.0,
+            "sway": 10.0,
+            "overspeed_trip": 10.0,
+            "stall": 1.0,
+        },
+        # --- reward -----------------------------------------------------------------------------------------
+        "reward_weights": {
+            "progress": 10.0,
+            "arrival": 10.0,
+            "time": 0.01,
+            "energy": 0.2,
+            "safety": 1.0,
+            "failure": 10.0,
+        },
+        # --- rendering --------------------------------------------------------------------------------------
+        "render_fps": 30,
+        "render_size": (800, 450),
+        "render_window_m": 60.0,
+    }
+
+
+CONFIG_DOCS: dict[str, str] = {
+    "vehicle": "VehicleParams, a dict of VehicleParams field overrides, or None for the spec's DX80/176Y.",
+    "policy_hz": "Agent decisions per second; the action is held for physics_hz/policy_hz physics ticks.",
+    "physics_hz": "Plant, sensor and estimator rate (Hz); must be an integer multiple of policy_hz.",
+    "observer": "What the agent is told about mass and slope: 'dffrls-aekf', any registered estimator name, "
+    "'oracle' (true values) or 'none' (the prior only).",
+    "observer_options": "Keyword options passed to estimators.make(observer, vehicle, **options).",
+    "scenario": "None for a random track per reset, or 'section1' | 'section2' | 'roadtest' (paper's fixed runs).",
+    "track_length_m": "(low, high) length of random tracks in metres (the spec's roadways allow 200-1500 m; the "
+    "default is shorter so episodes last a few hundred to a few thousand policy steps).",
+    "max_grade_deg": "Steepest grade of random tracks (deg).",
+    "allow_infeasible": "If True, random tracks may hold grades the drawn load cannot climb (the stall case).",
+    "feasibility_margin": "Feasible random tracks keep every up-grade below this fraction of the steepest grade the "
+    "drawn load can climb (with the drawn mu and adhesion).",
+    "track": "A uuom_gym.sim.track.TrackProfile to drive instead of a random one (overrides track_length_m).",
+    "stop_tolerance_m": "Success: standing still within this distance of the far station (m).",
+    "stop_speed_mps": "Speed below which the train counts as standing still (m/s).",
+    "max_episode_s": "Simulated-time limit (truncation); None = 2 x length / (rated-load speed limit, 0.5 m/s) "
+    "+ 120 s, "
+    "so a train that keeps half the most conservative limit still arrives.",
+    "load_kg": "Fixed load (kg) instead of a random one; None draws it from load_fraction_range.",
+    "load_fraction_range": "(low, high) load as a fraction of the rated load, drawn uniformly.",
+    "running_resistance_range": "(low, high) true running-resistance coefficient mu, drawn uniformly.",
+    "wet_probability": "Probability that the rail is wet/greasy (adhesion from adhesion_wet_range).",
+    "adhesion_dry_range": "(low, high) drive-wheel adhesion coefficient on dry rail.",
+    "adhesion_wet_range": "(low, high) drive-wheel adhesion coefficient on wet, greasy rail.",
+    "wheel_wear_range_m": "(low, high) drive-wheel radius lost to wear (m).",
+    "sensor_noise_scale_range": "(low, high) factor on every sensor's nominal noise level, drawn per reset.",
+    "sensor_bias_scale_range": "(low, high) factor on every sensor's nominal bias spread, drawn per reset (the "
+    "biases themselves are drawn from N(0, spread) by the sensor suite).",
+    "sensor_faults": "None, or a uuom_gym.sim.sensors.FaultConfig (dropouts, spikes, stuck channel, bias drift).",
+    "overspeed_trip_margin_mps": "Overspeed trip (rule 5): true speed above v_lim + this margin drops the "
+    "emergency brake and ends the episode as a failure (m/s).",
+    "slip_grace_s": "Adhesion (rule 2): continuous drive slip longer than this is a breach (s).",
+    "rollback_speed_mps": "Rollback (rule 3): moving backwards faster than this is a breach (m/s).",
+    "sway_limit_deg": "Load sway (rule 4): swing angle beyond this is a breach (deg).",
+    "stall_speed_mps": "Stall (rule 6): slower than this on a grade the load cannot climb is a breach (m/s).",
+    "cost_weights": "Weights of each rule's cost term in info['cost'] (see the cost table).",
+    "reward_weights": "Weights of each reward term (see the reward table).",
+    "render_fps": "Frames per second of render_mode='human' (and metadata['render_fps'] for videos).",
+    "render_size": "(width, height) of rendered frames in pixels.",
+    "render_window_m": "Length of track shown around the train in the side view (m).",
+}
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(float(x))
+
+
+def _check_range(cfg: dict[str, Any], key: str, lo: float, hi: float) -> None:
+    value = cfg[key]
+    if (
+        not isinstance(value, (tuple, list))
+        or len(value) != 2
+        or not all(_is_number(v) for v in value)
+    ):
+        raise ConfigError(f"config key '{key}' must be a (low, high) pair of finite numbers, got {value!r}")
+    a, b = float(value[0]), float(value[1])
+    if a > b:
+        raise ConfigError(f"config key '{key}': low {a} is greater than high {b}")
+    if a < lo or b > hi:
+        raise ConfigError(f"config key '{key}' must lie within [{lo}, {hi}], got {value!r}")
+    cfg[key] = (a, b)
+
+
+def _check_number(cfg: dict[str, Any], key: str, lo: float, hi: float = math.inf, *, open_lo: bool = False) -> None:
+    value = cfg[key]
+    if not _is_number(value):
+        raise ConfigError(f"config key '{key}' must be a finite number, got {value!r}")
+    v = float(value)
+    if v < lo or v > hi or (open_lo and v == lo):
+        bound = f"({lo}, {hi}]" if open_lo else f"[{lo}, {hi}]"
+        raise ConfigError(f"config key '{key}' must lie within {bound}, got {value!r}")
+    cfg[key] = v
+
+
+def _check_weights(cfg: dict[str, Any], key: str, names: tuple[str, ...], defaults: Mapping[str, float]) -> None:
+    value = cfg[key]
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"config key '{key}' must be a dict with keys {', '.join(names)}, got {value!r}")
+    unknown = sorted(set(value) - set(names))
+    if unknown:
+        raise ConfigError(f"config key '{key}': unknown term(s) {', '.join(unknown)}; known: {', '.join(names)}")
+    merged = dict(defaults)
+    for name, w in value.items():
+        if not _is_number(w) or float(w) < 0:
+            raise ConfigError(f"config key '{key}': weight '{name}' must be a finite number >= 0, got {w!r}")
+        merged[name] = float(w)
+    cfg[key] = merged
+
+
+def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> dict[str, Any]:
+    """Merge overrides into :func:`default_config` and validate the result.
+
+    Parameters
+    ----------
+    overrides : mapping, optional
+        Keys to override (e.g. the ``config=`` argument of the environment).
+    **kwargs
+        More overrides; these win over ``overrides``.
+
+    Returns
+    -------
+    dict
+        The complete, validated configuration. ``cost_weights`` / ``reward_weights`` given partially are merged
+        with the defaults.
+
+    Raises
+    ------
+    ConfigError
+        Unknown keys (all of them named) or invalid values (the key named).
+    """
+    cfg = default_config()
+    given: dict[str, Any] = {}
+    if overrides is not None:
+        if not isinstance(overrides, Mapping):
+            raise ConfigError(f"config must be a dict, got {type(overrides).__name__}")
+        given.update(overrides)
+    given.update(kwargs)
+    unknown = sorted(set(given) - set(cfg))
+    if unknown:
+        raise ConfigError(
+            f"unknown config key(s): {', '.join(unknown)}; known keys: {', '.join(sorted(cfg))}"
+        )
+    defaults = default_config()
+    for key, value in given.items():
+        cfg[key] = copy.deepcopy(value)
+
+    _check_number(cfg, "policy_hz", 0.0, 1000.0, open_lo=True)
+    _check_number(cfg, "physics_hz", 0.0, 10_000.0, open_lo=True)
+    ratio = cfg["physics_hz"] / cfg["policy_hz"]
+    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+        raise ConfigError(
+            f"config keys 'physics_hz' ({cfg['physics_hz']}) / 'policy_hz' ({cfg['policy_hz']}) must be a whole "
+            "number >= 1"
+        )
+    if not isinstance(cfg["observer"], str):
+        raise ConfigError(f"config key 'observer' must be a string, got {cfg['observer']!r}")
+    if not isinstance(cfg["observer_options"], Mapping):
+        raise ConfigError(f"config key 'observer_options' must be a dict, got {cfg['observer_options']!r}")
+    if cfg["scenario"] is not None and cfg["scenario"] not in SCENARIOS:
+        raise ConfigError(
+            f"config key 'scenario' must be None or one of {', '.join(SCENARIOS)}, got {cfg['scenario']!r}"
+        )
+    _check_range(cfg, "track_length_m", 50.0, 5000.0)
+    _check_number(cfg, "max_grade_deg", 0.0, 30.0)
+    if not isinstance(cfg["allow_infeasible"], bool):
+        raise ConfigError(f"config key 'allow_infeasible' must be True or False, got {cfg['allow_infeasible']!r}")
+    _check_number(cfg, "feasibility_margin", 0.0, 1.0, open_lo=True)
+    if cfg["track"] is not None and not (hasattr(cfg["track"], "length_m") and hasattr(cfg["track"], "slope_at")):
+        raise ConfigError(f"config key 'track' must be None or a TrackProfile, got {type(cfg['track']).__name__}")
+    if cfg["track"] is not None and cfg["scenario"] is not None:
+        raise ConfigError("config keys 'track' and 'scenario' cannot both be given")
+    _check_number(cfg, "stop_tolerance_m", 0.0, 100.0, open_lo=True)
+    _check_number(cfg, "stop_speed_mps", 0.0, 1.0, open_lo=True)
+    if cfg["max_episode_s"] is not None:
+        _check_number(cfg, "max_episode_s", 0.0, 1e6, open_lo=True)
+    if cfg["load_kg"] is not None:
+        _check_number(cfg, "load_kg", 0.0, 1e6)
+    _check_range(cfg, "load_fraction_range", 0.0, 1.2)
+    _check_range(cfg, "running_resistance_range", 0.0, 0.5)
+    _check_number(cfg, "wet_probability", 0.0, 1.0)
+    _check_range(cfg, "adhesion_dry_range", 0.01, 1.0)
+    _check_range(cfg, "adhesion_wet_range", 0.01, 1.0)
+    _check_range(cfg, "wheel_wear_range_m", 0.0, 0.05)
+    _check_range(cfg, "sensor_noise_scale_range", 0.0, 10.0)
+    _check_range(cfg, "sensor_bias_scale_range", 0.0, 10.0)
+    if cfg["sensor_faults"] is not None:
+        from uuom_gym.sim.sensors import FaultConfig
+
+        if not isinstance(cfg["sensor_faults"], FaultConfig):
+            raise ConfigError(
+                f"config key 'sensor_faults' must be None or a FaultConfig, got {type(cfg['sensor_faults']).__name__}"
+            )
+    _check_number(cfg, "overspeed_trip_margin_mps", 0.0, 5.0)
+    _check_number(cfg, "slip_grace_s", 0.0, 60.0)
+    _check_number(cfg, "rollback_speed_mps", 0.0, 1.0)
+    _check_number(cfg, "sway_limit_deg", 0.0, 90.0, open_lo=True)
+    _check_number(cfg, "stall_speed_mps", 0.0, 1.0)
+    _check_weights(cfg, "cost_weights", RULES, defaults["cost_weights"])
+    _check_weights(cfg, "reward_weights", REWARD_TERMS, defaults["reward_weights"])
+    fps = cfg["render_fps"]
+    if not isinstance(fps, int) or isinstance(fps, bool) or fps <= 0:
+        raise ConfigError(f"config key 'render_fps' must be a positive integer, got {fps!r}")
+    size = cfg["render_size"]
+    if (
+        not isinstance(size, (tuple, list))
+        or len(size) != 2
+        or not all(isinstance(v, int) and not isinstance(v, bool) and 64 <= v <= 4096 for v in size)
+    ):
+        raise ConfigError(f"config key 'render_size' must be (width, height) integers in [64, 4096], got {size!r}")
+    cfg["render_size"] = (int(size[0]), int(size[1]))
+    _check_number(cfg, "render_window_m", 5.0, 10_000.0)
+    return cfg
+
+
+__all__ = ["CONFIG_DOCS", "ConfigError", "REWARD_TERMS", "RULES", "SCENARIOS", "default_config", "make_config"]

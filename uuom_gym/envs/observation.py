@@ -1,0 +1,318 @@
+"""The observation layer of ``UUOM-Track-v0``: observers (what the agent is told about mass and slope) and the
+normalised observation vector.
+
+Observers
+---------
+``"dffrls-aekf"`` (default) or any name of :func:`estimators.available`
+    The estimator runs on **every** sensor sample (physics rate), fed the measured torque, ground speed,
+    accelerometer specific force, motor speed, gyro and normal accelerometer, with ``NaN`` for dropouts.
+``"oracle"``
+    The true mass and the true slope at the train, standard deviations 0.
+``"none"``
+    Nothing is learned: the prior (mid-range mass, level track) with the prior's standard deviations, and a
+    speed limit for the worst case the train could be in (rated load on the steepest down-grade).
+
+Observation vector (float32, every entry clipped to its finite bounds):
+
+===  =======================  ==================================================================  ============
+idx  name                     value                                                               bounds
+===  =======================  ==================================================================  ============
+0    ``speed``                measured ground speed (mean of the step's last 5 samples) / v_max   [-2, 2]
+1    ``accel``                measured specific force, mean over the step / 2.5 m/s^2             [-4, 4]
+2    ``last_command``         the action applied during the last step                             [-1, 1]
+3    ``est_load``             (estimated mass - empty mass) / rated load                          [-0.5, 1.5]
+4    ``est_mass_std``         estimated mass std / rated load                                     [0, 2]
+5    ``est_slope``            estimated slope / max grade (15 deg)                                [-2, 2]
+6    ``est_slope_std``        estimated slope std / max grade                                     [0, 2]
+7    ``est_speed_limit``      v_lim(estimated mass, estimated slope) / v_max                      [0, 1.5]
+8    ``speed_margin``         (measured speed - estimated limit) / v_max                          [-2, 2]
+9    ``distance_to_go``       (station position - odometry position) / track length               [-0.5, 1.5]
+10   ``distance_to_go_near``  (station position - odometry position) / 30 m (fine, near stop)     [-1, 1]
+11   ``wheel_slip``           (motor speed * nominal radius - measured speed) / 0.5 m/s           [-4, 4]
+===  =======================  ==================================================================  ============
+
+``v_max`` is the empty-train speed limit (2 m/s). Position comes from odometry (integrated measured speed) reset
+to the true position at track-side position markers (every ``POSITION_MARKER_SPACING_M``) as in mines with RFID
+beacons; no grade preview is given: UUOM roadways carry no surveyed grade map, which is why the slope must be
+estimated.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import numpy as np
+from gymnasium import spaces
+
+from uuom_gym.limits import speed_limit_mps
+from uuom_gym.vehicle import VehicleParams
+
+POSITION_MARKER_SPACING_M = 25.0
+"""Spacing of the track-side position markers that reset the odometry (m)."""
+
+OBS_NAMES: tuple[str, ...] = (
+    "speed",
+    "accel",
+    "last_command",
+    "est_load",
+    "est_mass_std",
+    "est_slope",
+    "est_slope_std",
+    "est_speed_limit",
+    "speed_margin",
+    "distance_to_go",
+    "distance_to_go_near",
+    "wheel_slip",
+)
+OBS_LOW = np.array([-2, -4, -1, -0.5, 0, -2, 0, 0, -2, -0.5, -1, -4], dtype=np.float32)
+OBS_HIGH = np.array([2, 4, 1, 1.5, 2, 2, 2, 1.5, 2, 1.5, 1, 4], dtype=np.float32)
+_LOW_LIST = [float(x) for x in OBS_LOW]
+_HIGH_LIST = [float(x) for x in OBS_HIGH]
+ACCEL_SCALE_MPS2 = 2.5
+NEAR_SCALE_M = 30.0
+SLIP_SCALE_MPS = 0.5
+
+SENSOR_KEYS: tuple[str, ...] = (
+    "torque_nm",
+    "speed_mps",
+    "accel_mps2",
+    "motor_speed_radps",
+    "gyro_radps",
+    "accel_normal_mps2",
+)
+
+
+class UnknownObserverError(ValueError):
+    """An observer name that is neither an estimator nor ``oracle`` / ``none``."""
+
+
+def observation_space() -> spaces.Box:
+    """The observation space (float32 Box with the bounds of the module table)."""
+    return spaces.Box(low=OBS_LOW.copy(), high=OBS_HIGH.copy(), dtype=np.float32)
+
+
+class Observer:
+    """Base of the observers: turns a policy step's sensor samples into a mass/slope estimate."""
+
+    name = "base"
+
+    def __init__(self, vehicle: VehicleParams) -> None:
+        self.vehicle = vehicle
+
+    def reset(self) -> None:
+        """Forget the previous episode."""
+
+    def observe(
+        self, measured: Mapping[str, np.ndarray], dt_s: float, true_mass_kg: float, true_slope_rad: float
+    ) -> tuple[float, float, float, float]:
+        """Process one policy step of samples; return ``(mass_kg, slope_rad, mass_std_kg, slope_std_rad)``."""
+        raise NotImplementedError
+
+
+class OracleObserver(Observer):
+    """The true mass and slope (the upper bound of what an estimator could give)."""
+
+    name = "oracle"
+
+    def observe(self, measured, dt_s, true_mass_kg, true_slope_rad):  # type: ignore[override]
+        return float(true_mass_kg), float(true_slope_rad), 0.0, 0.0
+
+
+class PriorObserver(Observer):
+    """No estimate: the prior (mid-range load, level track) and its spread."""
+
+    name = "none"
+
+    def observe(self, measured, dt_s, true_mass_kg, true_slope_rad):  # type: ignore[override]
+        v = self.vehicle
+        grade = math.radians(v.max_grade_deg)
+        return (
+            v.empty_mass_kg + 0.5 * v.rated_load_kg,
+            0.0,
+            v.rated_load_kg / math.sqrt(12.0),
+            grade / math.sqrt(3.0),
+        )
+
+
+class EstimatorObserver(Observer):
+    """A registered estimator, updated on every sensor sample of the step.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        Passed to the estimator.
+    name : str
+        Registry name (``estimators.available()``).
+    options : mapping
+        Estimator options.
+    """
+
+    def __init__(self, vehicle: VehicleParams, name: str, options: Mapping[str, Any] | None = None) -> None:
+        super().__init__(vehicle)
+        import estimators
+
+        self.name = name
+        self.estimator = estimators.make(name, vehicle, **dict(options or {}))
+        self._last = self.estimator.estimate
+
+    def reset(self) -> None:
+        self.estimator.reset()
+        self._last = self.estimator.estimate
+
+    def observe(self, measured, dt_s, true_mass_kg, true_slope_rad):  # type: ignore[override]
+        cols = [np.asarray(measured[k], dtype=float).tolist() for k in SENSOR_KEYS]
+        update = self.estimator.update
+        e = self._last
+        for torque, speed, accel, motor, gyro, acc_n in zip(*cols):
+            e = update(torque, speed, accel, dt_s, motor, gyro, acc_n)
+        self._last = e
+        return _finite_or(e.mass_kg, self.vehicle.empty_mass_kg + 0.5 * self.vehicle.rated_load_kg), _finite_or(
+            e.slope_rad, 0.0
+        ), _finite_or(abs(e.mass_std_kg), self.vehicle.rated_load_kg), _finite_or(abs(e.slope_std_rad), 1.0)
+
+
+def _finite_or(x: float, fallback: float) -> float:
+    # An estimator that breaks the no-NaN contract must not poison the observation; the fallback is the prior.
+    return float(x) if math.isfinite(x) else float(fallback)
+
+
+def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] | None = None) -> Observer:
+    """The observer called ``name`` (``"oracle"``, ``"none"`` or a registered estimator).
+
+    Raises
+    ------
+    UnknownObserverError
+        If the name is unknown; the message lists every valid name.
+    """
+    if name == "oracle":
+        return OracleObserver(vehicle)
+    if name == "none":
+        return PriorObserver(vehicle)
+    import estimators
+
+    if name not in estimators.available():
+        raise UnknownObserverError(
+            f"unknown observer {name!r}; choose 'oracle', 'none' or an estimator: {', '.join(estimators.available())}"
+        )
+    return EstimatorObserver(vehicle, name, options)
+
+
+def worst_case_speed_limit_mps(vehicle: VehicleParams) -> float:
+    """The limit a train that knows nothing must keep: rated load on the steepest down-grade."""
+    return speed_limit_mps(vehicle, vehicle.rated_mass_kg, -math.radians(vehicle.max_grade_deg))
+
+
+class ObservationBuilder:
+    """Builds the normalised observation vector from measured signals and the observer's estimate.
+
+    Also keeps the odometry (position from integrated measured speed, reset at position markers) and the last
+    valid measurements (used when a whole step's samples are dropouts).
+    """
+
+    def __init__(self, vehicle: VehicleParams, track_length_m: float, station_m: float) -> None:
+        self.vehicle = vehicle
+        self.track_length_m = float(track_length_m)
+        self.station_m = float(station_m)
+        self.v_max = vehicle.max_speed_empty_mps
+        self.grade_scale = math.radians(vehicle.max_grade_deg)
+        self.reset(0.0)
+
+    def reset(self, position_m: float) -> None:
+        self.odometry_m = float(position_m)
+        self._marker = math.floor(position_m / POSITION_MARKER_SPACING_M)
+        self.speed_mps = 0.0
+        self.accel_mps2 = 0.0
+        self.slip_mps = 0.0
+
+    def absorb(self, measured: Mapping[str, np.ndarray], dt_s: float, true_position_m: float) -> None:
+        """Take in one policy step of measured samples (NaN = dropout) and the true position (for markers)."""
+        v = np.asarray(measured["speed_mps"], dtype=float)
+        a = np.asarray(measured["accel_mps2"], dtype=float)
+        w = np.asarray(measured["motor_speed_radps"], dtype=float)
+        r = self.vehicle.drive_wheel_radius_m
+        v_sum = float(v.sum())
+        if math.isfinite(v_sum):
+            # no dropout in the step (the common case): one reduction per channel
+            self.odometry_m += v_sum * dt_s
+            self.speed_mps = float(v[-5:].mean())
+            w_sum = float(w.sum())
+            if math.isfinite(w_sum):
+                self.slip_mps = (w_sum * r - v_sum) / v.shape[0]
+        else:
+            ok = np.isfinite(v)
+            if ok.any():
+                # Odometry integrates the encoder; a dropout sample is bridged with the last valid speed.
+                self.odometry_m += float(_forward_fill(v, self.speed_mps).sum()) * dt_s
+                self.speed_mps = float(v[ok][-5:].mean())
+            else:
+                self.odometry_m += self.speed_mps * dt_s * v.shape[0]
+            both = np.isfinite(w) & ok
+            if both.any():
+                self.slip_mps = float((w[both] * r - v[both]).mean())
+        a_sum = float(a.sum())
+        if math.isfinite(a_sum):
+            self.accel_mps2 = a_sum / a.shape[0]
+        else:
+            good = a[np.isfinite(a)]
+            if good.size:
+                self.accel_mps2 = float(good.mean())
+        marker = math.floor(true_position_m / POSITION_MARKER_SPACING_M)
+        if marker != self._marker:
+            self._marker = marker
+            self.odometry_m = float(true_position_m)
+
+    def build(
+        self,
+        last_command: float,
+        mass_kg: float,
+        slope_rad: float,
+        mass_std_kg: float,
+        slope_std_rad: float,
+        est_speed_limit_mps: float,
+    ) -> np.ndarray:
+        """The observation vector (float32, clipped to the bounds; NaN would become 0)."""
+        vh = self.vehicle
+        to_go = self.station_m - self.odometry_m
+        raw = (
+            self.speed_mps / self.v_max,
+            self.accel_mps2 / ACCEL_SCALE_MPS2,
+            last_command,
+            (mass_kg - vh.empty_mass_kg) / vh.rated_load_kg,
+            mass_std_kg / vh.rated_load_kg,
+            slope_rad / self.grade_scale,
+            slope_std_rad / self.grade_scale,
+            est_speed_limit_mps / self.v_max,
+            (self.speed_mps - est_speed_limit_mps) / self.v_max,
+            to_go / self.track_length_m,
+            to_go / NEAR_SCALE_M,
+            self.slip_mps / SLIP_SCALE_MPS,
+        )
+        # Python-level clipping: on 12 numbers it is several times faster than three numpy calls.
+        out = [min(max(x, lo), hi) if x == x else 0.0 for x, lo, hi in zip(raw, _LOW_LIST, _HIGH_LIST)]
+        return np.array(out, dtype=np.float32)
+
+
+def _forward_fill(x: np.ndarray, first: float) -> np.ndarray:
+    out = x.copy()
+    prev = first
+    for i in range(out.shape[0]):
+        if math.isnan(out[i]):
+            out[i] = prev
+        else:
+            prev = out[i]
+    return out
+
+
+__all__ = [
+    "OBS_HIGH",
+    "OBS_LOW",
+    "OBS_NAMES",
+    "ObservationBuilder",
+    "Observer",
+    "POSITION_MARKER_SPACING_M",
+    "UnknownObserverError",
+    "make_observer",
+    "observation_space",
+    "worst_case_speed_limit_mps",
+]

@@ -1,0 +1,63 @@
+"""The reward of ``UUOM-Track-v0``: progress, arrival, time, traction energy and safety penalties.
+
+==============  =====================================================================  =======================
+term (key)      per policy step                                                         default weight
+==============  =====================================================================  =======================
+``progress``    ``+w * (s_end - s_start) / track_length`` (sums to ``w`` over a run)    10
+``arrival``     ``+w * (1 - 0.5 * |stop error| / stop_tolerance)`` on success           10
+``time``        ``-w * step duration in s``                                              0.01 per s
+``energy``      ``-w * traction energy in MJ`` (``sum(max(T * omega, 0) dt)``)           0.2 per MJ
+``safety``      ``-w * info["cost"]`` (the weighted safety cost)                         1
+``failure``     ``-w`` when the episode ends as a failure (overspeed trip, overrun)      10
+==============  =====================================================================  =======================
+
+The reward is the sum of the terms; ``info["rewards"]`` holds each one.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+from uuom_gym.envs.config import REWARD_TERMS
+
+
+def traction_energy_j(drive_torque_nm: np.ndarray, wheel_speed_radps: np.ndarray, dt_s: float) -> float:
+    """Energy delivered by the drive motors over a step: ``sum(max(T * omega, 0)) * dt`` (no regeneration)."""
+    power = np.asarray(drive_torque_nm, dtype=float) * np.asarray(wheel_speed_radps, dtype=float)
+    return float(np.maximum(power, 0.0).sum()) * dt_s
+
+
+def reward_terms(
+    weights: Mapping[str, float],
+    *,
+    progress_m: float,
+    track_length_m: float,
+    step_s: float,
+    energy_j: float,
+    cost: float,
+    arrived: bool,
+    stop_error_m: float,
+    stop_tolerance_m: float,
+    failed: bool,
+) -> dict[str, float]:
+    """The reward terms of one policy step (already weighted and signed; the reward is their sum)."""
+    if track_length_m <= 0:
+        raise ValueError(f"track_length_m must be > 0, got {track_length_m!r}")
+    arrival = 0.0
+    if arrived:
+        arrival = weights["arrival"] * (1.0 - 0.5 * min(abs(stop_error_m) / stop_tolerance_m, 1.0))
+    terms = {
+        "progress": weights["progress"] * progress_m / track_length_m,
+        "arrival": arrival,
+        "time": -weights["time"] * step_s,
+        "energy": -weights["energy"] * energy_j * 1e-6,
+        "safety": -weights["safety"] * cost,
+        "failure": -weights["failure"] if failed else 0.0,
+    }
+    assert tuple(terms) == REWARD_TERMS
+    return terms
+
+
+__all__ = ["reward_terms", "traction_energy_j"]

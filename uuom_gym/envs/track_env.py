@@ -1,0 +1,405 @@
+"""``UUOM-Track-v0``: drive an underground overhead monorail from one station to the next, safely.
+
+See :class:`UUOMTrackEnv` for the full description (CartPole-style), ``docs/env.md`` for the user guide.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from uuom_gym.envs.config import CONFIG_DOCS, REWARD_TERMS, ConfigError, default_config, make_config
+from uuom_gym.envs.observation import (
+    OBS_NAMES,
+    SENSOR_KEYS,
+    ObservationBuilder,
+    PriorObserver,
+    make_observer,
+    observation_space,
+    worst_case_speed_limit_mps,
+)
+from uuom_gym.envs.reward import reward_terms, traction_energy_j
+from uuom_gym.envs.safety import SafetyMonitor, SafetyParams
+from uuom_gym.limits import speed_limit_mps
+from uuom_gym.vehicle import DEFAULT_VEHICLE, VehicleParams
+
+
+class InvalidActionError(ValueError):
+    """An action that is not a finite array of shape (1,)."""
+
+
+class UUOMTrackEnv(gym.Env):
+    r"""Safety-aware speed control of an underground overhead monorail (UUOM).
+
+    ## Description
+
+    A monorail train (DX80/176Y: 16 t empty, up to 20 t load hanging on chains, 80 kN friction drive, 120 kN
+    service brake) stands at rest at a station. It must drive a roadway with grades up to 15 deg up or down and
+    stop at the far station within ``stop_tolerance_m``. The plant is a pymunk multi-body model (cars, couplers,
+    swinging load, friction drive with an adhesion limit, brakes, motor power/torque limits) simulated at
+    ``physics_hz`` (200 Hz); the sensors (torque, ground-speed encoder, motor encoder, accelerometer measuring
+    specific force, gyro) are sampled at the same rate with noise, bias and quantisation; an online estimator
+    (default DFFRLS-AEKF, Liu et al. 2023) runs on **every** sensor sample and tells the agent the mass and slope
+    it believes. The speed limit depends on mass and grade (spec §6), so the agent's safe speed depends on how
+    good that estimate is. Safety is judged from the **true** state.
+
+    ## Action Space
+
+    ``Box(-1, 1, (1,), float32)``: the command held for one policy step. ``> 0``: traction as a fraction of the
+    available traction force (the plant applies the motor torque and power limits, and the drive slips beyond
+    the adhesion limit); ``< 0``: service braking as a fraction of the service brake force. Values outside
+    ``[-1, 1]`` are clipped. A plain scalar is taken as one action; NaN/inf or a shape other than ``(1,)`` raise
+    :class:`InvalidActionError`.
+
+    ## Observation Space
+
+    ``Box(float32, shape (12,))``, normalised, finite bounds:
+
+    | Num | Observation           | Value                                                        | Min  | Max |
+    |-----|-----------------------|--------------------------------------------------------------|------|-----|
+    | 0   | speed                 | measured ground speed / 2 m/s                                 | -2   | 2   |
+    | 1   | accel                 | accelerometer specific force (mean over step) / 2.5 m/s^2    | -4   | 4   |
+    | 2   | last_command          | action applied during the last step                          | -1   | 1   |
+    | 3   | est_load              | (estimated mass - 16 t) / 20 t                                | -0.5 | 1.5 |
+    | 4   | est_mass_std          | estimated mass std / 20 t                                     | 0    | 2   |
+    | 5   | est_slope             | estimated slope / 15 deg                                      | -2   | 2   |
+    | 6   | est_slope_std         | estimated slope std / 15 deg                                  | 0    | 2   |
+    | 7   | est_speed_limit       | v_lim(estimated mass, estimated slope) / 2 m/s                | 0    | 1.5 |
+    | 8   | speed_margin          | (measured speed - estimated limit) / 2 m/s                    | -2   | 2   |
+    | 9   | distance_to_go        | (station - odometry position) / track length                  | -0.5 | 1.5 |
+    | 10  | distance_to_go_near   | (station - odometry position) / 30 m                          | -1   | 1   |
+    | 11  | wheel_slip            | (motor speed x nominal radius - measured speed) / 0.5 m/s     | -4   | 4   |
+
+    Position is odometry (integrated encoder speed) reset at track-side markers every 25 m. There is no grade
+    preview: roadways have no surveyed grade map. With ``observer="oracle"`` entries 3-7 are the truth (std 0);
+    with ``observer="none"`` they hold the prior and the worst-case limit (rated load, steepest down-grade).
+
+    ## Rewards
+
+    Sum of ``info["rewards"]``: ``progress`` (+10 x fraction of the track covered), ``arrival`` (+10 on
+    success, less up to half for the stop error), ``time`` (-0.01 per s), ``energy`` (-0.2 per MJ of traction
+    energy), ``safety`` (-1 x ``info["cost"]``), ``failure`` (-10 on overspeed trip or overrun). Weights:
+    ``reward_weights``.
+
+    ## Starting State
+
+    At rest at ``s = 0`` (a level run-in) with service brake released. Each ``reset(seed)`` draws the track
+    (length in ``track_length_m``, grades to ``max_grade_deg``, feasible for the load unless
+    ``allow_infeasible``), the load (0 to rated), running resistance, dry/wet adhesion, wheel wear, sensor
+    noise and bias scales. ``scenario`` fixes the paper's runs instead.
+
+    ## Episode End
+
+    Terminated: success (standing still, ``|v| < stop_speed_mps``, within ``stop_tolerance_m`` of the far
+    station); overspeed trip (true speed > v_lim + ``overspeed_trip_margin_mps``: the emergency brake drops);
+    overrun (more than ``stop_tolerance_m`` past the station); running back off the start (> 20 m behind it).
+    Truncated: simulated time beyond ``max_episode_s`` (default: half the rated-load speed limit over the track
+    plus 120 s) and the registry's ``max_episode_steps`` = 30 000.
+
+    ## Arguments
+
+    ``gym.make("UUOM-Track-v0", render_mode=None, **config)``; every key of :meth:`default_config` (see
+    ``CONFIG_DOCS`` and ``docs/env.md``), e.g. ``observer="oracle"``, ``scenario="section1"``,
+    ``policy_hz=5``, ``allow_infeasible=True``. Unknown keys raise :class:`ConfigError`.
+
+    | Argument          | Default         | Meaning                                                   |
+    |-------------------|-----------------|-----------------------------------------------------------|
+    | render_mode       | None            | None, "rgb_array" or "human"                              |
+    | observer          | "dffrls-aekf"   | estimator name, "oracle" or "none"                        |
+    | scenario          | None            | None (random), "section1", "section2", "roadtest"        |
+    | policy_hz         | 10              | agent decisions per second                                |
+    | physics_hz        | 200             | plant / sensor / estimator rate                           |
+    | track_length_m    | (100, 300)      | random track length range                                 |
+    | allow_infeasible  | False           | allow grades the load cannot climb                        |
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
+
+    def __init__(self, render_mode: str | None = None, config: Mapping[str, Any] | None = None, **kwargs: Any):
+        super().__init__()
+        self.config = make_config(config, **kwargs)
+        cfg = self.config
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ConfigError(
+                f"render_mode must be None or one of {', '.join(self.metadata['render_modes'])}, got {render_mode!r}"
+            )
+        self.render_mode = render_mode
+        self.metadata = dict(self.metadata, render_fps=cfg["render_fps"])
+        self.vehicle = _make_vehicle(cfg["vehicle"])
+        self.ticks_per_step = int(round(cfg["physics_hz"] / cfg["policy_hz"]))
+        self.dt_s = 1.0 / cfg["physics_hz"]
+        self.step_s = self.ticks_per_step * self.dt_s
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        self.observation_space = observation_space()
+        self.observer = make_observer(cfg["observer"], self.vehicle, cfg["observer_options"])
+        self.safety = SafetyMonitor(self.vehicle, SafetyParams.from_config(cfg))
+        self._none_limit = worst_case_speed_limit_mps(self.vehicle)
+        self._renderer = None
+        self.plant = None
+        self.track = None
+
+    # ------------------------------------------------------------------------------------------------------------
+    @staticmethod
+    def default_config() -> dict[str, Any]:
+        """The default configuration (every key documented in ``CONFIG_DOCS``)."""
+        return default_config()
+
+    config_docs = CONFIG_DOCS
+    observation_names = OBS_NAMES
+
+    # ------------------------------------------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        from uuom_gym.envs import _plant_adapter as pa
+
+        cfg = self.config
+        rng = self.np_random
+        cond = pa.draw_conditions(cfg, self.vehicle, rng)
+        self.conditions = cond
+        self.track = cond.track
+        self.plant, self.sensors = pa.build_plant(self.vehicle, cfg, cond, rng)
+        self.station_m = self.track.length_m
+        self.true_mass_kg = self.vehicle.empty_mass_kg + cond.load_kg
+        self.safety.reset(self.true_mass_kg, cond.running_resistance, cond.adhesion)
+        self.observer.reset()
+        self.obs_builder = ObservationBuilder(self.vehicle, self.track.length_m, self.station_m)
+        self.obs_builder.reset(0.0)
+        self.max_episode_s = (
+            cfg["max_episode_s"]
+            if cfg["max_episode_s"] is not None
+            else 2.0 * self.track.length_m / self.vehicle.max_speed_rated_mps + 120.0
+        )
+        st = pa.state_arrays(self.plant)
+        self.t_s = 0.0
+        self.position_m = st["position_m"]
+        self.speed_mps = st["speed_mps"]
+        self.sway_rad = st["sway_rad"]
+        self.true_slope_rad = float(self.track.slope_at(self.position_m))
+        self.last_command = 0.0
+        self.episode_cost = 0.0
+        self.episode_energy_j = 0.0
+        self.violation_counts = {r: 0 for r in self.safety.params.cost_weights}
+        empty = {k: np.empty(0) for k in SENSOR_KEYS}
+        self._estimate = self.observer.observe(empty, self.dt_s, self.true_mass_kg, self.true_slope_rad)
+        self._est_limit = self._estimated_limit(self._estimate)
+        self.true_limit_mps = float(self.safety.speed_limit(self.true_slope_rad)[0])
+        self._last_violations: tuple[str, ...] = ()
+        self._last_cost = 0.0
+        obs = self._observation()
+        info = self._info(cost=0.0, costs={r: 0.0 for r in self.violation_counts},
+                          violations={r: False for r in self.violation_counts},
+                          rewards={t: 0.0 for t in REWARD_TERMS}, success=False, termination="")
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def step(self, action: Any):
+        if self.plant is None:
+            raise RuntimeError("UUOMTrackEnv.step() called before reset()")
+        from uuom_gym.envs import _plant_adapter as pa
+
+        command = _check_action(action)
+        cfg = self.config
+        s_start = self.position_m
+        log = self.plant.advance(command, self.ticks_per_step)
+        tick = pa.log_arrays(log)
+        measured = self.sensors.measure(log)
+        dt = self.dt_s
+        self.t_s += self.step_s
+        self.position_m = float(tick["position_m"][-1])
+        self.speed_mps = float(tick["speed_mps"][-1])
+        self.sway_rad = float(tick["sway_rad"][-1])
+        self.true_slope_rad = float(tick["slope_rad"][-1])
+        self.last_command = command
+
+        self._estimate = self.observer.observe(measured, dt, self.true_mass_kg, self.true_slope_rad)
+        self._est_limit = self._estimated_limit(self._estimate)
+        self.obs_builder.absorb(measured, dt, self.position_m)
+
+        rep = self.safety.evaluate(dt, tick["speed_mps"], tick["slope_rad"], tick["slipping"], tick["sway_rad"])
+        self.true_limit_mps = rep.speed_limit_mps
+        energy = traction_energy_j(tick["drive_torque_nm"], tick["wheel_speed_radps"], dt)
+        self.episode_energy_j += energy
+
+        to_go = self.station_m - self.position_m
+        tol = cfg["stop_tolerance_m"]
+        arrived = abs(to_go) <= tol and abs(self.speed_mps) < cfg["stop_speed_mps"]
+        termination = ""
+        if rep.tripped:
+            self.plant.emergency_brake()
+            termination = "overspeed_trip"
+        elif arrived:
+            termination = "arrived"
+        elif to_go < -tol:
+            termination = "overrun"
+        elif self.position_m < -20.0:
+            termination = "ran_off_start"
+        failed = termination in ("overspeed_trip", "overrun", "ran_off_start")
+        terminated = termination != ""
+        truncated = False
+        if not terminated and self.t_s >= self.max_episode_s - 1e-9:
+            truncated = True
+            termination = "time_limit"
+
+        rewards = reward_terms(
+            cfg["reward_weights"],
+            progress_m=self.position_m - s_start,
+            track_length_m=self.track.length_m,
+            step_s=self.step_s,
+            energy_j=energy,
+            cost=rep.cost,
+            arrived=termination == "arrived",
+            stop_error_m=to_go,
+            stop_tolerance_m=tol,
+            failed=failed,
+        )
+        reward = float(sum(rewards.values()))
+        self.episode_cost += rep.cost
+        for r, hit in rep.violations.items():
+            self.violation_counts[r] += int(hit)
+        self._last_violations = tuple(r for r, hit in rep.violations.items() if hit)
+        self._last_cost = rep.cost
+        obs = self._observation()
+        info = self._info(rep.cost, rep.costs, rep.violations, rewards, termination == "arrived", termination)
+        if self.render_mode == "human":
+            self.render()
+        return obs, reward, terminated, truncated, info
+
+    # ------------------------------------------------------------------------------------------------------------
+    def _estimated_limit(self, est: tuple[float, float, float, float]) -> float:
+        if isinstance(self.observer, PriorObserver):
+            return self._none_limit
+        mass = min(max(est[0], 1.0), 10.0 * self.vehicle.max_mass_kg)
+        slope = min(max(est[1], -1.2), 1.2)
+        return speed_limit_mps(self.vehicle, mass, slope)
+
+    def _conservative_limit(self) -> float:
+        """Limit for the estimate's pessimistic corner: mass + 2 sigma, slope - 2 sigma (for shields)."""
+        if isinstance(self.observer, PriorObserver):
+            return self._none_limit
+        m, th, ms, ts = self._estimate
+        mass = min(max(m + 2.0 * ms, 1.0), 10.0 * self.vehicle.max_mass_kg)
+        slope = min(max(th - 2.0 * ts, -1.2), 1.2)
+        return speed_limit_mps(self.vehicle, mass, slope)
+
+    def _observation(self) -> np.ndarray:
+        m, th, ms, ts = self._estimate
+        return self.obs_builder.build(self.last_command, m, th, ms, ts, self._est_limit)
+
+    def _info(self, cost, costs, violations, rewards, success, termination) -> dict[str, Any]:
+        m, th, ms, ts = self._estimate
+        c = self.conditions
+        return {
+            "cost": float(cost),
+            "costs": dict(costs),
+            "violations": dict(violations),
+            "rewards": dict(rewards),
+            "is_success": bool(success),
+            "termination": termination,
+            "t_s": self.t_s,
+            "position_m": self.position_m,
+            "distance_to_go_m": self.station_m - self.position_m,
+            "speed_mps": self.speed_mps,
+            "command": self.last_command,
+            "true_mass_kg": self.true_mass_kg,
+            "est_mass_kg": m,
+            "est_mass_std_kg": ms,
+            "true_slope_rad": self.true_slope_rad,
+            "est_slope_rad": th,
+            "est_slope_std_rad": ts,
+            "true_speed_limit_mps": self.true_limit_mps,
+            "est_speed_limit_mps": self._est_limit,
+            "est_speed_limit_2sigma_mps": self._conservative_limit(),
+            "sway_rad": self.sway_rad,
+            "episode_cost": self.episode_cost,
+            "episode_energy_j": self.episode_energy_j,
+            "violation_counts": dict(self.violation_counts),
+            "track_length_m": self.track.length_m,
+            "load_kg": c.load_kg,
+            "running_resistance": c.running_resistance,
+            "adhesion": c.adhesion,
+            "wet_rail": c.wet,
+            "wheel_wear_m": c.wheel_wear_m,
+            "max_climbable_grade_rad": self.safety.climbable_rad,
+            "observer": self.observer.name,
+        }
+
+    # ------------------------------------------------------------------------------------------------------------
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if self.plant is None:
+            raise RuntimeError("UUOMTrackEnv.render() called before reset()")
+        from uuom_gym.envs.rendering import Frame, Renderer
+
+        if self._renderer is None:
+            cfg = self.config
+            self._renderer = Renderer(self.render_mode, cfg["render_size"], cfg["render_window_m"], cfg["render_fps"])
+        m, th, ms, ts = self._estimate
+        frame = Frame(
+            track_s_m=self.track.s_m,
+            track_elevation_m=self.track.z_m,
+            track_length_m=self.track.length_m,
+            position_m=self.position_m,
+            sway_rad=self.sway_rad,
+            speed_mps=self.speed_mps,
+            true_limit_mps=self.true_limit_mps,
+            est_limit_mps=self._est_limit,
+            true_mass_kg=self.true_mass_kg,
+            est_mass_kg=m,
+            mass_std_kg=ms,
+            true_slope_rad=self.true_slope_rad,
+            est_slope_rad=th,
+            slope_std_rad=ts,
+            command=self.last_command,
+            t_s=self.t_s,
+            cost=self._last_cost,
+            observer=self.observer.name,
+            train_length_m=self.vehicle.length_m,
+            violations=self._last_violations,
+        )
+        return self._renderer.draw(frame)
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        super().close()
+
+
+def _make_vehicle(spec: Any) -> VehicleParams:
+    if spec is None:
+        return DEFAULT_VEHICLE
+    if isinstance(spec, VehicleParams):
+        return spec
+    if isinstance(spec, Mapping):
+        return DEFAULT_VEHICLE.with_changes(**dict(spec))
+    raise ConfigError(f"config key 'vehicle' must be None, a VehicleParams or a dict of overrides, got {spec!r}")
+
+
+def _check_action(action: Any) -> float:
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidActionError(f"action must be a numeric array of shape (1,), got {action!r}") from None
+    if a.shape != (1,):
+        if a.size == 1 and a.ndim <= 1:
+            a = a.reshape(1)
+        else:
+            raise InvalidActionError(f"action must have shape (1,), got shape {a.shape}")
+    x = float(a[0])
+    if not math.isfinite(x):
+        raise InvalidActionError(f"action must be finite, got {x!r}")
+    return min(max(x, -1.0), 1.0)
+
+
+__all__ = ["InvalidActionError", "UUOMTrackEnv"]

@@ -40,12 +40,15 @@ One step, all particles at once (numpy)
 3. Draw ``i_j ~ N(ihat_j, Phat_j)``; Kalman-update the radius given ``i_j``; log-weight
    ``+= log p(v | i_j, rho_j, Sigma_j) + log p(i_j | i_j^-, s_j) - log q(i_j)``.
 4. Normalise in the log domain. If no particle explains the sample (every log-likelihood below
-   ``underflow_log_likelihood`` or non-finite: the weights would all underflow to 0), reset the weights to uniform
-   and widen the radius beliefs instead of dividing by zero. Resample (systematic) when the effective sample size
+   ``underflow_log_likelihood`` or non-finite: the weights would all underflow to 0), treat the sample as an
+   outlier: learn nothing from it, reset the weights to uniform and widen the radius beliefs instead of dividing
+   by zero. Resample (systematic) when the effective sample size
    falls below ``resample_ess_fraction * n_particles``.
 
-Below ``min_speed_mps`` ground speed the filter only predicts: at standstill a spinning wheel has slip ~1 and the
-speed ratio carries no radius information. The radius belief is kept within ``[0.5, 1.02] x`` nominal. The filter does not estimate mass or slope: it reports
+Below ``min_speed_mps`` ground speed the filter does not weight particles: with the drive wheel's rim speed above
+twice the ground speed and twice ``min_speed_mps`` the train has stalled with the wheel spinning and the slip is set
+from plain kinematics (about 1; no radius information); with the wheel at rest too, it only predicts. The radius
+belief is kept within ``[0.5, 1.02] x`` nominal. The filter does not estimate mass or slope: it reports
 the prior (mid-range mass, level track) with large standard deviations. Its results are in ``extras``:
 ``slip_ratio``, ``slip_ratio_std``, ``drive_radius_m``, ``drive_radius_m_std``, ``macro_slip_prob`` (posterior
 probability of the macro-slip regime) and ``ess_fraction``.
@@ -99,7 +102,7 @@ class AUPFEstimator(Estimator):
         ``mu_a`` of the creep curve; default the vehicle's dry-rail adhesion.
     slip_onset_rate_hz, spontaneous_slip_rate_hz, slip_recovery_rate_hz : float, default 2.0, 0.01, 1.0
         Regime-switch rates (see the module docstring).
-    max_slip : float, default 0.95
+    max_slip : float, default 0.99
         Bound of the slip ratio.
     speed_std_mps : float, default 0.02
         Initial ground-speed noise (adapted online).
@@ -156,7 +159,7 @@ class AUPFEstimator(Estimator):
         slip_onset_rate_hz: float = 2.0,
         spontaneous_slip_rate_hz: float = 0.01,
         slip_recovery_rate_hz: float = 1.0,
-        max_slip: float = 0.95,
+        max_slip: float = 0.99,
         speed_std_mps: float = 0.02,
         motor_speed_std_radps: float = 0.05,
         noise_fading: float = 0.995,
@@ -362,6 +365,22 @@ class AUPFEstimator(Estimator):
         q_i = np.where(macro, self._q_macro, self._q_adh) * dt_s
         q_r = self._q_r * dt_s
         m_i = self._slip_mean(self._i, self._rho, macro, torque, a)
+        spinning = (
+            not can_update
+            and math.isfinite(speed_mps)
+            and math.isfinite(omega)
+            and abs(omega) * self._r_nom >= max(2.0 * self._v_min, 2.0 * abs(speed_mps))  # slip > ~0.5
+        )
+        if spinning:
+            # stalled with the wheel spinning: the slip is ~1 and plain kinematics; no radius information
+            rim = omega * self._rho
+            slip = (rim - speed_mps) / np.maximum(np.abs(rim), abs(speed_mps))
+            noise = math.sqrt(self._r0) / np.abs(rim)
+            self._i = np.clip(slip + noise * rng.standard_normal(n), -self._max_slip, self._max_slip)
+            self._s = np.where(slip > 0.0, 1, self._s).astype(np.int8)
+            self._sig = self._sig + q_r
+            self._estimate = self._summary()
+            return self._estimate
         if not can_update:
             self._i = np.clip(m_i + np.sqrt(q_i) * rng.standard_normal(n), -self._max_slip, self._max_slip)
             self._sig = self._sig + q_r
@@ -414,18 +433,21 @@ class AUPFEstimator(Estimator):
         resid = y - h * self._rho
         log_lik = -0.5 * (resid * resid / s_r + np.log(s_r) + _LOG_2PI)
         k_r = sig_bar * h / s_r
-        # physical bounds: a drive wheel cannot grow, nor wear beyond half its radius
-        self._rho = np.clip(self._rho + k_r * resid, 0.5 * self._r_nom, 1.02 * self._r_nom)
-        self._sig = np.maximum(sig_bar - k_r * k_r * s_r, 1e-16)
         e_t = new_i - m_i
         e_q = new_i - hat_i
         log_trans = -0.5 * (e_t * e_t / q_i + np.log(q_i))
         log_q = -0.5 * (e_q * e_q / hat_p + np.log(hat_p))
-        self._i = new_i
         # 4. weights in the log domain, underflow recovery, resampling
         if not np.all(np.isfinite(log_lik)) or float(log_lik.max()) < self._ll_floor:
+            # no particle explains the sample: an outlier; learn nothing from it (predicted slip, radius prior)
+            self._i = np.clip(m_i, -self._max_slip, self._max_slip)
+            self._sig = sig_bar
             self._recover_from_underflow()
         else:
+            # physical bounds: a drive wheel cannot grow, nor wear beyond half its radius
+            self._rho = np.clip(self._rho + k_r * resid, 0.5 * self._r_nom, 1.02 * self._r_nom)
+            self._sig = np.maximum(sig_bar - k_r * k_r * s_r, 1e-16)
+            self._i = new_i
             logw = self._logw + log_lik + log_trans - log_q
             logw = np.where(np.isfinite(logw), logw, -np.inf)
             top = float(logw.max())

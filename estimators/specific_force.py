@@ -25,6 +25,12 @@ sample with traction carries mass information — not only accelerations as in t
 the same second-order low-pass; ``a`` is the low-passed derivative of the measured speed. Samples without
 traction (coasting, braking: the brake force is not measured) or at standstill are skipped.
 
+The train is 18 m long and gravity acts on all of it, while the accelerometer sits on the drive section: θ_train
+is the mass-weighted slope under the train, from the filter's own slope history along the distance travelled
+(the drive section's mass at the current slope, the rest of the mass ``rear_offset_m`` behind). Without it a
+grade transition reads as a mass change (21-33 % mass RMSE on the plant's scenarios instead of 2-11 %). Inside
+sharp transitions, where this two-point model is least exact, the mass is not updated.
+
 Gives mass, slope and μ (``extras["mu"]``, ``extras["mu_std"]``), each with 1-sigma standard deviations. Robust
 like the others: spikes gated (physically impossible jumps of the inputs, innovation gate on speed), NaN samples
 predict only, mass clamped to the vehicle's range, covariances symmetric PD (Joseph form).
@@ -65,6 +71,19 @@ class SpecificForceKF(Estimator):
         Effective (correlation-inflated) residual std of the mass regression.
     gate_sigma : float
         Speed-innovation gate.
+    prior_mass_kg : float, optional
+        Initial mass (default mid-range), prior std half the mass range.
+    front_mass_kg, rear_offset_m : float, optional
+        Mass distribution for the slope under the train (see :meth:`_train_slope`): the drive section's mass at
+        the sensors (default 55 % of the empty mass) and how far behind the rest of the mass sits (default half
+        the train length). ``rear_offset_m=0`` treats the train as a point mass.
+    history_step_m : float
+        Spacing of the slope history along the distance travelled.
+    max_slope_spread_rad : float
+        No mass update while the slope at the sensors and ``rear_offset_m`` behind differ by more than this
+        (default 0.025 rad ≈ 1.4°): in grade transitions the two-point mass distribution is least exact, and a
+        constant mass loses little by skipping them. (Chosen among 0.025-0.07 and off on the plant's three
+        scenarios at 0, 10 and 20 t, seed 0.)
     """
 
     name: ClassVar[str] = "sf-kf"
@@ -74,7 +93,8 @@ class SpecificForceKF(Estimator):
                  accel_std_mps2: float = 0.3, grade_rate_std_rps: float = 0.01, cutoff_hz: float = 1.0,
                  mu_prior_std: float = 0.01, residual_std_mps2: float = 0.3, gate_sigma: float = 6.0,
                  prior_mass_kg: float | None = None, front_mass_kg: float | None = None,
-                 rear_offset_m: float | None = None, history_step_m: float = 0.25, **options: Any) -> None:
+                 rear_offset_m: float | None = None, history_step_m: float = 0.25,
+                 max_slope_spread_rad: float = 0.025, **options: Any) -> None:
         super().__init__(vehicle, **options)
         for name, value in (("speed_std_mps", speed_std_mps), ("accel_std_mps2", accel_std_mps2),
                             ("grade_rate_std_rps", grade_rate_std_rps), ("cutoff_hz", cutoff_hz),
@@ -114,6 +134,9 @@ class SpecificForceKF(Estimator):
         self.P0_cd = self.mu0 * self.P0_c  # d = μ c: prior correlated with c through the nominal μ
         self.R_m = residual_std_mps2**2
         self.slope_ready_var = math.radians(1.0) ** 2
+        if not max_slope_spread_rad > 0:
+            raise ValueError(f"max_slope_spread_rad must be > 0, got {max_slope_spread_rad!r}")
+        self.max_spread = float(max_slope_spread_rad)
         self.front = RegressionFrontEnd(v, cutoff_hz)
         self.lp_sin = LowPass2(cutoff_hz)
         self.lp_cos = LowPass2(cutoff_hz)
@@ -142,6 +165,7 @@ class SpecificForceKF(Estimator):
         self.s_m = 0.0
         self.next_s = 0.0
         self.hist: deque[float] = deque()
+        self.slope_spread = 0.0
         self.gate_f.reset()
         self.gate_v.reset()
 
@@ -157,7 +181,8 @@ class SpecificForceKF(Estimator):
         sf = self.lp_sin(math.sin(th_eff), dt_s)
         cf = self.lp_cos(math.cos(th_eff), dt_s)
         # no mass update before the slope layer has converged (its slope enters the regression)
-        if self.front.step(torque_nm, speed_mps, dt_s) and self.P22 < self.slope_ready_var:
+        if (self.front.step(torque_nm, speed_mps, dt_s) and self.P22 < self.slope_ready_var
+                and self.slope_spread < self.max_spread):
             self._mass_step(sf, cf)
         return self.estimate
 
@@ -186,6 +211,7 @@ class SpecificForceKF(Estimator):
                 h.popleft()
         # before the train has travelled rear_offset_m, the track behind the start is taken as the first slope seen
         th_rear = h[0]
+        self.slope_spread = abs(th - th_rear)
         w = self.front_mass / (self.c * self.m_ref)
         return w * th + (1.0 - w) * th_rear
 

@@ -31,24 +31,41 @@ def _x(speed, mass=26_000.0, slope_deg=0.0, mass_std=0.0, slope_std_deg=0.0, to_
 
 def test_full_traction_is_cut_near_the_limit_and_brakes_above_it():
     lim = speed_limit_mps(V, 26_000.0, 0.0)
-    # (a fresh shield per call: it keeps a disturbance estimate from one step to the next)
-    assert SafetyShield(V).filter(1.0, _x(0.5 * lim)) < 0.2  # the sway-safe acceleration bound
-    assert SafetyShield(V).filter(1.0, _x(lim)) < 0.0  # at the limit the cap (with margins) is exceeded: brake
-    assert SafetyShield(V).filter(-0.01, _x(0.5 * lim)) == pytest.approx(-0.01)  # a gentle brake passes
-    assert SafetyShield(V).filter(-1.0, _x(0.5 * lim)) > -0.1  # below the cap, no sway-exciting hard brake
+    warm = ShieldParams(warmup_s=0.0)
+    # (a fresh shield per call: it keeps a disturbance estimate and a memory from one step to the next)
+    assert SafetyShield(V, warm).filter(1.0, _x(0.5 * lim)) < 0.2  # the sway-safe acceleration bound
+    assert SafetyShield(V, warm).filter(1.0, _x(lim)) < 0.0  # at the limit the cap (with margins) is exceeded
+    assert SafetyShield(V, warm).filter(-0.01, _x(0.5 * lim)) == pytest.approx(-0.01)  # a gentle brake passes
+    assert SafetyShield(V, warm).filter(-1.0, _x(0.5 * lim)) > -0.1  # below the cap: no sway-exciting brake
+
+
+def test_warmup_and_memory_distrust_a_young_or_jumping_estimate():
+    sh = SafetyShield(V, ShieldParams(warmup_s=1.0, memory_s=2.0))
+    rated_cap = speed_limit_mps(V, V.rated_mass_kg, -math.radians(1.5))
+    sh.filter(0.0, _x(0.3, mass=17_000.0))
+    assert sh.speed_cap(_x(0.3, mass=17_000.0)) <= rated_cap  # warm-up: rated load assumed
+    for _ in range(12):
+        sh.filter(0.0, _x(0.3, mass=30_000.0))
+    heavy = sh.speed_cap(_x(0.3, mass=30_000.0))
+    sh.filter(0.0, _x(0.3, mass=17_000.0))
+    assert sh.speed_cap(_x(0.3, mass=17_000.0)) == pytest.approx(heavy)  # the jump is not believed yet
+    for _ in range(25):
+        sh.filter(0.0, _x(0.3, mass=17_000.0))
+    assert sh.speed_cap(_x(0.3, mass=17_000.0)) > heavy  # after memory_s it is
 
 
 def test_uncertainty_lowers_the_cap():
-    sh = SafetyShield(V)
+    sh = SafetyShield(V, ShieldParams(warmup_s=0.0))
     sure = sh.speed_cap(_x(0.5, slope_deg=-8.0))
     unsure = sh.speed_cap(_x(0.5, slope_deg=-8.0, mass_std=4000.0, slope_std_deg=3.0))
     assert unsure < sure
 
 
 def test_station_stop_and_rollback_guard():
-    assert SafetyShield(V).filter(1.0, _x(0.3, to_go=-0.5)) == -1.0
+    warm = ShieldParams(warmup_s=0.0)
+    assert SafetyShield(V, warm).filter(1.0, _x(0.3, to_go=-0.5)) == -1.0
     # standing on an up-grade away from the station: a brake request is raised to a holding traction
-    assert SafetyShield(V).filter(-1.0, _x(0.0, slope_deg=8.0)) > 0.0
+    assert SafetyShield(V, warm).filter(-1.0, _x(0.0, slope_deg=8.0)) > 0.0
 
 
 def test_nan_command_becomes_brake_and_params_are_checked():

@@ -152,12 +152,25 @@ def test_below_adhesion_no_slip_and_wear_shows_in_motor_speed():
     assert log.drive_torque_nm[-1] / log.traction_force_n[-1] == pytest.approx(0.16, rel=0.02)
 
 
-def test_wet_rail_rated_load_slips_on_8_deg():
-    plant = MonorailPlant(V, straight(8.0), PlantConfig(load_kg=V.rated_load_kg, adhesion=V.adhesion_wet),
+@pytest.mark.parametrize("grade_deg, expected", [(8.0, "stall"), (10.0, "rollback")])
+def test_wet_rail_rated_load_slips_on_the_grade(grade_deg, expected):
+    """Wet rail, 36 t, full traction: the drive slips (80 kN demanded, 46.8 kN transmitted). On 8 deg gravity
+    (49.2 kN) is more than the drive transmits but less than drive + running resistance (53.8 kN): the train
+    stalls, held by the Coulomb resistance. On 10 deg (61.3 kN) it rolls back.
+
+    (This test used to say the 8 deg train rolls back; it only did so by 0.4 mm because of the slip-onset bug,
+    which pushed it backwards with the full adhesion force for a tick.)"""
+    plant = MonorailPlant(V, straight(grade_deg), PlantConfig(load_kg=V.rated_load_kg, adhesion=V.adhesion_wet),
                           start_s_m=50.0)
+    assert force_balance_class(plant) == expected
     log = plant.advance(1.0, 800)
     assert log.slipping[-1]
-    assert log.position_m[-1] < 50.0  # what the adhesion transmits cannot hold the train
+    assert log.traction_force_n[-1] == pytest.approx(plant.adhesion_limit_n)
+    moved = log.position_m[-1] - 50.0
+    if expected == "stall":
+        assert abs(moved) < 0.01 and np.all(np.abs(log.speed_mps[-400:]) < 1e-3)
+    else:
+        assert moved < -0.5 and log.speed_mps[-1] < -0.3
 
 
 def test_power_limit_caps_traction_at_speed():
@@ -292,3 +305,163 @@ def test_buffer_stop_at_the_end_of_the_rail():
     assert pos[-1] == pytest.approx(100.0 + 40.0 - 4.0 - 0.0875, abs=0.3)  # front wheel against the stop
     assert abs(logs[-1].speed_mps[-1]) < 0.05
     assert np.all(np.abs(np.concatenate([g.pitch_rad for g in logs])) < 0.05)  # still on the rail
+
+
+# --- issue 2 follow-up: a heavy train on a grade it cannot hold -------------------------------------------------
+# The reported case: 36 t, adhesion 0.1508 (drive limit 39.2 kN), the track level to 20 m, a 20 m transition to
+# 14 deg. Whether the train climbs, stalls or rolls back is decided by the force balance over the whole 18 m
+# train, not by the slope under its reference point: gravity G = g sum(m_i sin(slope under body i)), the drive
+# transmits at most F = adhesion x clamp force (forward: the wheel slips forward), Coulomb running resistance
+# holds at most R = mu g sum(m_i cos(slope_i)). G > F + R: rolls back; G < F - R: climbs; else it stalls.
+ISSUE_KNOTS = [(0.0, 0.0), (20.0, 0.0), (40.0, 14.0), (200.0, 14.0)]
+
+
+def gravity_and_resistance_n(plant: MonorailPlant) -> tuple[float, float]:
+    """First-principles along-track gravity and the most the running resistance can hold, from the bodies."""
+    bodies = plant.space.bodies
+    m = np.array([b.mass for b in bodies])
+    th = np.interp([b.position.x for b in bodies], plant.track.x_m, plant.track.slope_rad)
+    return G_MPS2 * float(m @ np.sin(th)), plant.mu * G_MPS2 * float(m @ np.cos(th))
+
+
+def force_balance_class(plant: MonorailPlant, margin_n: float = 2_000.0) -> str:
+    g, r = gravity_and_resistance_n(plant)
+    f = plant.adhesion_limit_n
+    if g > f + r + margin_n:
+        return "rollback"
+    if g < f - r - margin_n:
+        return "climb"
+    if f - r + margin_n < g < f + r - margin_n:
+        return "stall"
+    return "edge"
+
+
+@pytest.mark.parametrize(
+    "start_s_m, expected",
+    [
+        (31.0, "climb"),  # front on the transition, load still near the level: G = 18 kN
+        (34.88, "stall"),  # the reported start: slope 10.4 deg at the reference point, but G = 35 kN < F + R
+        (36.5, "stall"),
+        (40.0, "rollback"),  # reference point at the top of the transition, load on it: G = 57 kN
+        (60.0, "rollback"),  # whole train on the 14 deg grade: G = 85 kN
+    ],
+)
+def test_heavy_train_climbs_stalls_or_rolls_back_by_the_force_balance(start_s_m, expected):
+    plant = MonorailPlant(V, profile_from_knots(ISSUE_KNOTS), PlantConfig(load_kg=20_000, adhesion=0.1508),
+                          start_s_m=start_s_m)
+    assert force_balance_class(plant) == expected  # the setup is where we think it is, away from the edges
+    logs = [plant.advance(1.0, 20) for _ in range(20)]  # 2 s of full traction, in env-sized blocks
+    log = logs[-1]
+    moved = log.position_m[-1] - start_s_m
+    assert log.slipping[-1]  # 80 kN demanded, 39 kN transmitted
+    assert log.traction_force_n[-1] == pytest.approx(plant.adhesion_limit_n)
+    if expected == "rollback":
+        assert moved < -0.25 and log.speed_mps[-1] < -0.2
+    elif expected == "climb":
+        assert moved > 0.25 and log.speed_mps[-1] > 0.2
+    else:  # held by the Coulomb resistance: no creeping either way once the load has settled
+        assert abs(moved) < 0.05
+        assert np.all(np.abs(log.speed_mps) < 5e-3)
+
+
+def test_rollback_on_the_grade_accelerates_at_the_force_balance():
+    """Whole train on 14 deg, full (slipping) traction: the momentum falls at (G - F - R) / (M + m_rot)."""
+    plant = MonorailPlant(V, profile_from_knots(ISSUE_KNOTS), PlantConfig(load_kg=20_000, adhesion=0.1508),
+                          start_s_m=60.0)
+    g, r = gravity_and_resistance_n(plant)
+    expected = -(g - plant.adhesion_limit_n - r) / (plant.total_mass_kg + V.rotating_mass_kg)
+    cos14 = math.cos(math.radians(14.0))
+    plant.advance(1.0, 40)
+    v0, t0 = cm_speed(plant) / cos14, plant.t_s
+    plant.advance(1.0, 200)
+    a = (cm_speed(plant) / cos14 - v0) / (plant.t_s - t0)
+    assert a == pytest.approx(expected, rel=0.05)
+
+
+def test_stalled_train_rolls_back_when_traction_is_released():
+    plant = MonorailPlant(V, profile_from_knots(ISSUE_KNOTS), PlantConfig(load_kg=20_000, adhesion=0.1508),
+                          start_s_m=34.88)
+    held = plant.advance(1.0, 400)
+    assert np.all(np.abs(held.speed_mps[-200:]) < 5e-3)
+    s_held = held.position_m[-1]
+    g, r = gravity_and_resistance_n(plant)
+    assert g > r + 10_000.0  # without the drive nothing can hold it
+    log = plant.advance(0.0, 200)
+    assert log.position_m[-1] < s_held - 0.3 and log.speed_mps[-1] < -0.3
+    assert not log.slipping[-1]  # the spinning wheel caught up with the train and rolls with it
+
+
+@pytest.mark.parametrize("ratio", [0.9, 1.15])
+def test_running_resistance_holds_at_most_mu_n_at_standstill(ratio):
+    """No traction on a grade with tan(slope) = ratio x mu: held below mu, rolls back above it at the
+    Coulomb rate g (sin - mu cos) M / (M + m_rot) - stiction never holds more than mu N."""
+    mu = 0.02
+    slope = math.atan(ratio * mu)
+    plant = MonorailPlant(V, straight(math.degrees(slope)), PlantConfig(load_kg=20_000, running_resistance=mu),
+                          start_s_m=100.0)
+    log = plant.advance(0.0, 800)
+    moved = log.position_m[-1] - 100.0
+    if ratio < 1.0:
+        assert abs(moved) < 1e-3
+    else:
+        m = plant.total_mass_kg
+        a = G_MPS2 * (math.sin(slope) - mu * math.cos(slope)) * m / (m + V.rotating_mass_kg)
+        assert moved == pytest.approx(-0.5 * a * 4.0**2, rel=0.1)
+
+
+@pytest.mark.parametrize("ratio", [0.9, 1.1])
+def test_level_traction_moves_the_train_only_beyond_mu_n(ratio):
+    mu, load = 0.02, 20_000.0
+    m = V.empty_mass_kg + load
+    plant = MonorailPlant(V, straight(0.0), PlantConfig(load_kg=load, running_resistance=mu), start_s_m=100.0)
+    log = plant.advance(ratio * mu * m * G_MPS2 / V.max_traction_n, 800)
+    moved = log.position_m[-1] - 100.0
+    if ratio < 1.0:
+        assert moved < 3e-3  # the coupler and chains take up the force (about 1 mm), no rolling
+        assert np.all(np.abs(log.speed_mps[-200:]) < 1e-3)
+    else:
+        a = (ratio - 1.0) * mu * m * G_MPS2 / (m + V.rotating_mass_kg)
+        assert moved == pytest.approx(0.5 * a * 4.0**2, abs=0.02)
+
+
+
+# --- the drive's stick/slip logic -------------------------------------------------------------------------------
+def test_slip_starts_at_once_in_the_direction_of_the_demand():
+    """The first tick whose stick force exceeds the adhesion limit slips, and the contact pushes the way the motor
+    does. (Before the fix the direction came from the rounding residue of omega r - v, zero at that moment: the
+    onset was delayed by a few ticks at the limit, or the train got the full adhesion force backwards.)"""
+    plant = MonorailPlant(V, straight(8.0), PlantConfig(load_kg=V.rated_load_kg, adhesion=V.adhesion_wet),
+                          start_s_m=50.0)
+    log = plant.advance(1.0, 20)
+    assert log.slipping[0]
+    assert np.all(log.traction_force_n == plant.adhesion_limit_n)
+
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        grade = float(rng.uniform(2.0, 12.0))
+        plant = MonorailPlant(V, straight(grade), PlantConfig(load_kg=float(rng.uniform(0, 20_000)),
+                              adhesion=float(rng.uniform(0.05, 0.2))), start_s_m=50.0)
+        logs = [plant.advance(float(rng.choice([0.0, 0.05, 0.3, 0.6, 1.0])), 20) for _ in range(30)]
+        log = type(logs[0]).concatenate(logs)
+        # uphill, motor pushing forward or idle: the wheel is never slower than the ground, so the contact can
+        # never pull the train backwards
+        assert np.all(log.traction_force_n[log.drive_torque_nm > 0] >= 0.0), grade
+        onset = np.flatnonzero(log.slipping[1:] & ~log.slipping[:-1]) + 1
+        assert np.all(log.traction_force_n[onset] == plant.adhesion_limit_n)
+
+
+def test_restick_hands_the_train_only_the_momentum_the_wheel_had():
+    """A stalled train with its drive wheel spinning (34.88 m case) has its traction released: the wheel spins
+    down against the rail and sticks again. Over the block, the impulse the contact gives the train equals the
+    wheel's loss of angular momentum, J (omega_0 - omega_end) / r (no motor torque) - not the full adhesion force
+    for the whole re-stick tick, which handed the train ~90 N s that the wheel never had."""
+    plant = MonorailPlant(V, profile_from_knots(ISSUE_KNOTS), PlantConfig(load_kg=20_000, adhesion=0.1508),
+                          start_s_m=34.88)
+    held = plant.advance(1.0, 400)
+    assert held.slipping[-1]
+    omega0, r = held.wheel_speed_radps[-1], held.drive_radius_m[-1]
+    log = plant.advance(0.0, 200)
+    assert not log.slipping[-1]
+    impulse = float(np.sum(log.traction_force_n)) * plant.dt_s
+    j = plant.config.drive_inertia_kgm2
+    assert impulse == pytest.approx(j * (omega0 - log.wheel_speed_radps[-1]) / r, rel=0.02)

@@ -13,7 +13,22 @@ from uuom_gym.trace import Trace
 
 from .synthetic import synthetic_imu_run
 
-__all__ = ["make_runs", "plant_available"]
+__all__ = ["make_runs", "plant_available", "plant_run_with_pitch"]
+
+
+def plant_run_with_pitch(*args, **kwargs) -> Trace:
+    """``simulate_run(*args, **kwargs)`` plus the column ``imu_pitch_deg``: the drive unit's true pitch.
+
+    The IMU sits on a drive unit; its pitch is the rail chord there, which differs from ``slope_deg`` (the
+    slope at the train's reference point) on grade transitions. It is the truth of what the attitude filter
+    estimates.
+    """
+    from uuom_gym.sim.recording import simulate_run
+
+    trace, log = simulate_run(*args, return_log=True, **kwargs)
+    cols = dict(trace.columns)
+    cols["imu_pitch_deg"] = np.degrees(np.asarray(log.pitch_rad, dtype=np.float64))
+    return Trace(cols, source=trace.source, meta=dict(trace.meta))
 
 
 def plant_available() -> bool:
@@ -33,7 +48,6 @@ def _plant_run(seed: int) -> Trace:
     at its end (10-25 s of it).
     """
     from uuom_gym.limits import load_speed_limit_mps
-    from uuom_gym.sim.recording import simulate_run
     from uuom_gym.sim.scenarios import SpeedProfile
     from uuom_gym.sim.track import random_track
     from uuom_gym.vehicle import DEFAULT_VEHICLE
@@ -51,13 +65,14 @@ def _plant_run(seed: int) -> Trace:
                            accel_limit_mps2=a_lim)
     moving_s = d1 / v1 + d2 / v2 + 2.0 * (v1 + abs(v2 - v1) + v2) / a_lim + 5.0
     duration = moving_s + float(rng.uniform(10.0, 25.0))
-    return simulate_run(track, seed=seed, load_kg=load, speed_profile=profile, duration_s=duration)
+    return plant_run_with_pitch(track, seed=seed, load_kg=load, speed_profile=profile, duration_s=duration)
 
 
 def make_runs(n: int, seed: int, duration_s: float = 120.0, source: str = "auto") -> tuple[list[Trace], str]:
     """``n`` runs with IMU columns and truth, seeds ``seed, seed+1, ...``; returns ``(traces, source_used)``.
 
     ``duration_s`` applies to synthetic runs; a plant run lasts its stop-and-go cycle plus 10-25 s at rest.
+    Every run has the column ``imu_pitch_deg`` (true pitch of the IMU) besides the trace truth.
     """
     if source not in ("auto", "sim", "synthetic"):
         raise ValueError(f"source must be 'auto', 'sim' or 'synthetic', got {source!r}")
@@ -65,7 +80,12 @@ def make_runs(n: int, seed: int, duration_s: float = 120.0, source: str = "auto"
         source = "sim" if plant_available() else "synthetic"
     runs: list[Trace] = []
     if source == "synthetic":
-        runs = [synthetic_imu_run(seed + k, duration_s) for k in range(n)]
+        runs = []
+        for k in range(n):
+            tr = synthetic_imu_run(seed + k, duration_s)
+            cols = dict(tr.columns)
+            cols["imu_pitch_deg"] = tr["slope_deg"] + np.degrees(tr["sway_rad"])
+            runs.append(Trace(cols, source=tr.source))
     else:
         for k in range(n):
             runs.append(_plant_run(seed + k))

@@ -448,6 +448,13 @@ class MonorailPlant:
         self._body_mass_share = masses / masses.sum()
         self._idx = {name: ids.index(b.id) for name, b in
                      (("drive", d), ("beam", beam), ("load", load), ("w0", wheels[0]))}
+        self._sel_bodies = [self._idx["drive"], self._idx["beam"], self._idx["load"]]
+        # chain points in body coordinates, as columns for (beam, load): top of the front chain, its bottom
+        self._chain_pts = (np.array([[self._chain_top[1][0]], [self._chain_bot[1][0]]]),
+                           np.array([[self._chain_top[1][1]], [self._chain_bot[1][1]]]))
+        self._track_x_range = (float(self.track.x_m[0]), float(self.track.x_m[-1]))
+        self._tick_offsets_s: dict[int, np.ndarray] = {}
+        self._friction_c: tuple | None = None  # Chipmunk handles for _set_friction (built on first use)
         self._fields = (
             pbatch.BodyFields.POSITION | pbatch.BodyFields.ANGLE | pbatch.BodyFields.VELOCITY
             | pbatch.BodyFields.ANGULAR_VELOCITY
@@ -460,21 +467,29 @@ class MonorailPlant:
     def _set_friction(self, brake_n: float) -> None:
         """Resistance mu N at each wheel from the local slope, plus the brake force shared over the wheels."""
         r_c = self.vehicle.carrying_wheel_radius_m
+        if self._friction_c is None or self._friction_mu != self.mu:  # (mu is a public attribute)
+            mu_g = self.mu * G_MPS2
+            self._friction_mu = self.mu
+            self._friction_mu_w = [mu_g * kg for kg in self._wheel_weight_kg]  # mu g m_i, same product order
+            if _lib is not None:
+                self._friction_c = ([w._body for w in self.wheels], [m._constraint for m in self.friction_motors])
+            else:
+                self._friction_c = ((), ())
+        wheel_c, motor_c = self._friction_c
         if _lib is not None:
             get_pos, set_max = _lib.cpBodyGetPosition, _lib.cpConstraintSetMaxForce
-            xs = [get_pos(w._body).x for w in self.wheels]
+            xs = [get_pos(w).x for w in wheel_c]
         else:
             xs = [w.position.x for w in self.wheels]
         # the rail never turns back, so the slope is a function of x; np.interp clamps to the end slopes
         cos_th = np.cos(np.interp(xs, self.track.x_m, self.track.slope_rad)).tolist()
         brake_share = brake_n / 4.0
-        mu_g = self.mu * G_MPS2
-        for m, kg, c in zip(self.friction_motors, self._wheel_weight_kg, cos_th):
-            value = (mu_g * kg * c + brake_share) * r_c
-            if _lib is not None:
-                set_max(m._constraint, value)
-            else:
-                m.max_force = value
+        if _lib is not None:
+            for m, mu_w, c in zip(motor_c, self._friction_mu_w, cos_th):
+                set_max(m, (mu_w * c + brake_share) * r_c)
+        else:
+            for m, mu_w, c in zip(self.friction_motors, self._friction_mu_w, cos_th):
+                m.max_force = (mu_w * c + brake_share) * r_c
 
     def _settle(self) -> None:
         """Hold the train by the brake until it is at rest, then zero the clock and the velocities."""
@@ -614,8 +629,13 @@ class MonorailPlant:
         om_taper = 0.1 * om_max
         if self._prims is None:
             self._prims = self._primitives()
-        get_vel, get_ang, get_angvel, apply_force, step_space, log_bodies, buf = self._prims
+        push, cbody, zero, cstep, cspace, each, it, data, vel_fn, ang_fn, angvel_fn, buf = self._prims
         buf.clear()  # reuse the batch arrays; _finish_log copies what it keeps
+        # the drive section's [angle, vx, vy, w] of tick k are read back from the batch log when it is reachable
+        # (cheaper than three getter calls, the same doubles): at arr[o + 2 .. o + 5], o = k * stride + off
+        farr = buf._float_arr if data is not None else None
+        stride = 6 * self._n_bodies
+        off = 6 * self._idx["drive"]
         torque = [0.0] * n
         force = [0.0] * n
         omega_log = [0.0] * n
@@ -642,14 +662,21 @@ class MonorailPlant:
                     tq = c_trac * cap
                 else:
                     tq = 0.0
-                if not slipping:
+                if slipping:
+                    # direction of the slip velocity; never zero while slipping (a tick that would end with it
+                    # zero or reversed re-sticks instead)
+                    sgn = 1.0 if omega * r > v_prev else -1.0
+                else:
                     # force that keeps the wheel rolling with the train (its inertia with last tick's accel)
                     f = tq / r - jr2 * a_prev
-                    if f > f_adh or f < -f_adh:
-                        slipping = True
+                    # beyond the limit the wheel starts to slip in the direction of the excess demand (the slip
+                    # velocity is still zero here: its rounding residue must not pick the direction)
+                    if f > f_adh:
+                        slipping, sgn = True, 1.0
+                    elif f < -f_adh:
+                        slipping, sgn = True, -1.0
+                restick = False
                 if slipping:
-                    rel = omega * r - v_prev
-                    sgn = 1.0 if rel > 0.0 or (rel == 0.0 and tq > 0.0) else -1.0
                     f = sgn * f_adh
                     # implicit Euler of J domega/dt = T(omega) - f r: torque-limited branch, else power branch
                     om1 = omega + dt * (tq - f * r) / jd
@@ -658,21 +685,38 @@ class MonorailPlant:
                         om1 = (b + math.sqrt(b * b + 4.0 * jd * dt * c_trac * p_max)) / (2.0 * jd)
                         if om1 > om_max:
                             om1 = om_max
+                    v_pred = v_prev + a_prev * dt
+                    if (om1 * r - v_pred) * sgn <= 0.0:
+                        # the slip ends within this tick: the contact passes only the force that brings the wheel
+                        # to the train's speed (the full adhesion force for the whole tick would hand the train
+                        # more momentum than the wheel had to give), then the wheel sticks
+                        f = (tq - jd * (v_pred / r - omega) / dt) / r
+                        if f > f_adh:
+                            f = f_adh
+                        elif f < -f_adh:
+                            f = -f_adh
+                        restick = True
                     omega_new = om1
-                apply_force(f)
+                push(cbody, (f, 0.0), zero)
                 if energy:
                     e_pre = self._energy_pre()
-                step_space()
+                cstep(cspace, dt)
                 if energy:
                     self._energy_tick(f, e_pre)
-                log_bodies()
-                vel = get_vel()
-                ang = get_ang()
-                v = vel.x * cos(ang) + vel.y * sin(ang) - get_angvel() * hang
+                each(cspace, it, data)
+                if farr is not None:
+                    arr = farr.arr  # (re-read: the log may have grown and moved)
+                    o = k * stride + off
+                    ang = arr[o + 2]
+                    v = arr[o + 3] * cos(ang) + arr[o + 4] * sin(ang) - arr[o + 5] * hang
+                else:
+                    vel = vel_fn(cbody)
+                    ang = ang_fn(cbody)
+                    v = vel.x * cos(ang) + vel.y * sin(ang) - angvel_fn(cbody) * hang
                 a_prev = (v - v_prev) / dt
                 if slipping:
-                    # re-stick when the slip velocity changes sign during the tick
-                    if (omega_new * r - v) * (omega * r - v_prev) <= 0.0:
+                    # re-stick when the slip ends: predicted above, or the slip velocity not in the slip direction
+                    if restick or (omega_new * r - v) * sgn <= 0.0:
                         slipping = False
                         omega = v / r
                     else:
@@ -698,45 +742,46 @@ class MonorailPlant:
         self._last_row = log.row(n - 1)
         return log
 
-    def _primitives(self):
-        """Per-tick operations as bare callables. Where pymunk's Chipmunk bindings are reachable they call
-        Chipmunk directly (a 2-3x cheaper tick: no Vec2d objects, no Python-side step bookkeeping we do not use
-        - post-step callbacks, deferred adds); otherwise pymunk's public API, with identical results."""
+    def _primitives(self) -> tuple:
+        """Per-tick operations as bare callables with their arguments, called straight from the tick loop.
+
+        Where pymunk's Chipmunk bindings are reachable these are Chipmunk's own functions (a 2-3x cheaper tick:
+        no Vec2d objects, no Python-side step bookkeeping we do not use - post-step callbacks, deferred adds -
+        and no Python frame between the loop and C); otherwise wrappers of pymunk's public API with the same
+        signatures, with identical results.
+
+        Returns ``(push, body, zero, step, space, each, iterator, data, velocity, angle, angular_velocity,
+        buffer)``: the loop calls ``push(body, (f, 0.0), zero)``, ``step(space, dt)``,
+        ``each(space, iterator, data)`` (logs all bodies into ``buffer``) and ``velocity(body)`` etc.
+        """
         space, d, dt = self.space, self.drive_body, self.dt_s
         buf = pbatch.Buffer()
         fields_ = self._fields
         if _lib is not None:
-            lib, cbody, cspace = _lib, d._body, space._space
+            lib = _lib
             data = _ffi.new("pmBatchedData *")
             data.fields = fields_.value
             data.floatArray = buf._float_arr
             data.intArray = buf._int_arr
             it = _ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched")
-            each, cstep = lib.cpSpaceEachBody, lib.cpSpaceStep
-            push = lib.cpBodyApplyForceAtLocalPoint
-            zero = (0.0, 0.0)
-
-            def apply_force(f: float) -> None:
-                push(cbody, (f, 0.0), zero)
-
-            def step_space() -> None:
-                cstep(cspace, dt)
-
-            def log_bodies() -> None:
-                each(cspace, it, data)
-
-            vel_fn, ang_fn, angvel_fn = lib.cpBodyGetVelocity, lib.cpBodyGetAngle, lib.cpBodyGetAngularVelocity
             return (
-                lambda: vel_fn(cbody), lambda: ang_fn(cbody), lambda: angvel_fn(cbody), apply_force, step_space,
-                log_bodies, buf,
+                lib.cpBodyApplyForceAtLocalPoint, d._body, (0.0, 0.0), lib.cpSpaceStep, space._space,
+                lib.cpSpaceEachBody, it, data, lib.cpBodyGetVelocity, lib.cpBodyGetAngle,
+                lib.cpBodyGetAngularVelocity, buf,
             )
 
-        def apply_force_py(f: float) -> None:
-            d.apply_force_at_local_point((f, 0.0), (0.0, 0.0))
+        def push(_body, force: tuple[float, float], point: tuple[float, float]) -> None:
+            d.apply_force_at_local_point(force, point)
+
+        def step(_space, _dt: float) -> None:
+            space.step(dt)
+
+        def each(_space, _it, _data) -> None:
+            pbatch.get_space_bodies(space, fields_, buf)
 
         return (
-            lambda: d.velocity, lambda: d.angle, lambda: d.angular_velocity, apply_force_py,
-            lambda: space.step(dt), lambda: pbatch.get_space_bodies(space, fields_, buf), buf,
+            push, None, (0.0, 0.0), step, None, each, None, None, lambda _b: d.velocity, lambda _b: d.angle,
+            lambda _b: d.angular_velocity, buf,
         )
 
     # ------------------------------------------------------------------------------------------ energy books
@@ -781,43 +826,56 @@ class MonorailPlant:
 
     def _finish_log(self, buf: pbatch.Buffer, n: int, torque: np.ndarray, force: np.ndarray,
                     omega: np.ndarray, slipping: np.ndarray, brake: float, v_start: float) -> PlantLog:
-        """Derive the truth columns from the raw body states of the block (vectorised over its ticks)."""
-        raw = np.frombuffer(memoryview(buf.float_buf()).cast("B"), dtype=np.float64).reshape(n, self._n_bodies, 6)
+        """Derive the truth columns from the raw body states of the block (vectorised over its ticks).
+
+        Each numpy call costs about a microsecond whatever its size, so the columns of the three bodies we read
+        are handled together (one copy, one cos, one sin); the arithmetic and its order are those of the
+        per-body formulas, so the results do not change by a bit.
+        """
+        raw = np.frombuffer(buf.float_buf(), dtype=np.float64).reshape(n, self._n_bodies, 6)
         dt = self.dt_s
-        t = self._t + dt * np.arange(1, n + 1)
+        t_offsets = self._tick_offsets_s.get(n)
+        if t_offsets is None:
+            t_offsets = self._tick_offsets_s[n] = dt * np.arange(1, n + 1)
+        t = self._t + t_offsets
         self._t = float(t[-1])
-        i = self._idx
-        # one copy of the columns we need: [x, y, angle, vx, vy, w] of drive, beam, load; w of the front wheel
-        D = raw[:, i["drive"], :].T.copy()
-        B = raw[:, i["beam"], :3].T
-        P = raw[:, i["load"], :3].T
-        w0 = -raw[:, i["w0"], 5]  # rolling forward turns the wheel clockwise
-        ang = D[2]
-        ca, sa = np.cos(ang), np.sin(ang)
-        speed = D[3] * ca + D[4] * sa - D[5] * _D_HANG
+        # one copy of what we need: S[field, body, tick], fields [x, y, angle, vx, vy, w], bodies drive/beam/load
+        S = raw[:, self._sel_bodies, :].transpose(2, 1, 0).copy()
+        cos3 = np.cos(S[2])
+        sin3 = np.sin(S[2])
+        ang = S[2, 0]
+        ca, sa = cos3[0], sin3[0]
+        w0 = -raw[:, self._idx["w0"], 5]  # rolling forward turns the wheel clockwise
+        speed = S[3, 0] * ca + S[4, 0] * sa - S[5, 0] * _D_HANG
         prev = np.empty((3, n + 1))
         prev[:, 0] = (v_start, self._prev_vel[0], self._prev_vel[1])
         prev[0, 1:] = speed
-        prev[1:, 1:] = D[3:5]
+        prev[1:, 1:] = S[3:5, 0]
         d_all = (prev[:, 1:] - prev[:, :-1]) / dt
         accel, ax, ay = d_all[0], d_all[1], d_all[2] + G_MPS2
         fx = ax * ca + ay * sa
         fz = ay * ca - ax * sa
-        self._prev_vel = (float(D[3, -1]), float(D[4, -1]))
+        self._prev_vel = (float(prev[1, -1]), float(prev[2, -1]))
         tr = self.track
-        x_rail = D[0] + (self.vehicle.carrying_wheel_radius_m - _D_HANG) * sa
-        if x_rail[0] >= tr.x_m[0] and x_rail[-1] <= tr.x_m[-1] and x_rail[-1] >= tr.x_m[0] and x_rail[0] <= tr.x_m[-1]:
+        x_rail = S[0, 0] + (self.vehicle.carrying_wheel_radius_m - _D_HANG) * sa
+        x_lo, x_hi = self._track_x_range
+        if n * dt <= 0.5:
+            # both ends of the block 1 m inside the track: no tick in between left it (going 1 m beyond an end
+            # and back within 0.5 s would take more than 16 m/s^2), so the cheap test of the ends is exact
+            x_first, x_last = float(x_rail[0]), float(x_rail[-1])
+            on_track = x_lo + 1.0 <= x_first <= x_hi - 1.0 and x_lo + 1.0 <= x_last <= x_hi - 1.0
+        else:
+            on_track = x_rail.min() >= x_lo and x_rail.max() <= x_hi
+        if on_track:  # s_at_x is this interpolation on the track; beyond its ends it extrapolates
             pos = np.interp(x_rail, tr.x_m, tr.s_m)
         else:
             pos = np.asarray(tr.s_at_x(x_rail), dtype=np.float64).reshape(n)
         slope = np.interp(pos, tr.s_m, tr.slope_rad)
-        # front chain: from its top on the beam to its bottom on the load
-        (tx, tz), (bx, bz) = self._chain_top[1], self._chain_bot[1]
-        cb, sb = np.cos(B[2]), np.sin(B[2])
-        cp, sp = np.cos(P[2]), np.sin(P[2])
-        dx = (P[0] + bx * cp - bz * sp) - (B[0] + tx * cb - tz * sb)
-        dy = (B[1] + tx * sb + tz * cb) - (P[1] + bx * sp + bz * cp)
-        sway = np.arctan2(dx, dy)
+        # front chain: from its top on the beam to its bottom on the load (rows: beam point, load point)
+        ox, oz = self._chain_pts
+        px = S[0, 1:] + ox * cos3[1:] - oz * sin3[1:]
+        py = S[1, 1:] + ox * sin3[1:] + oz * cos3[1:]
+        sway = np.arctan2(px[1] - px[0], py[0] - py[1])
         sway_rate = np.empty(n)
         sway_rate[0] = sway[0] - self._prev_sway
         sway_rate[1:] = sway[1:] - sway[:-1]
@@ -838,7 +896,7 @@ class MonorailPlant:
             t_s=t, position_m=pos, speed_mps=speed, accel_mps2=accel, slope_rad=slope, specific_force_mps2=fx,
             drive_torque_nm=torque, traction_force_n=force, wheel_speed_radps=omega, slip_ratio=slip,
             drive_radius_m=const[0], sway_rad=sway, sway_rate_radps=sway_rate, pitch_rad=ang,
-            pitch_rate_radps=D[5], normal_specific_force_mps2=fz, total_mass_kg=const[1], slipping=slipping,
+            pitch_rate_radps=S[5, 0], normal_specific_force_mps2=fz, total_mass_kg=const[1], slipping=slipping,
             brake_force_n=const[2], carry_wheel_speed_radps=w0, effective_slope_rad=eff_slope,
         )
 

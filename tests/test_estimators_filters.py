@@ -1,0 +1,90 @@
+"""Tests of the shared numerical helpers in estimators/filters.py."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from estimators.filters import (
+    LowPass2,
+    SpikeGate,
+    check_dt,
+    dynamic_forgetting,
+    joseph_update,
+    repair_pd,
+    repair_pd_2x2,
+    sage_husa_weight,
+)
+
+
+def test_lowpass_step_response_and_nan_hold() -> None:
+    lp = LowPass2(1.0)
+    assert lp(math.nan, 0.005) == 0.0 and not lp.ready
+    assert lp(2.0, 0.005) == 2.0  # starts at the first value
+    ys = [lp(5.0, 0.005) for _ in range(2000)]
+    assert ys[-1] == pytest.approx(5.0, abs=1e-6)
+    assert all(b >= a for a, b in zip(ys, ys[1:]))  # monotone step response (two real poles)
+    y = lp(math.nan, 0.005)  # missing sample: holds the last input
+    assert y == pytest.approx(5.0, abs=1e-6)
+    with pytest.raises(ValueError, match="cutoff_hz"):
+        LowPass2(0.0)
+
+
+def test_lowpass_delays_both_sides_alike() -> None:
+    # filtering y = k x on both sides keeps the ratio exactly (why the regressions filter both sides)
+    a, b = LowPass2(0.7), LowPass2(0.7)
+    rng = np.random.default_rng(0)
+    for x in rng.normal(size=500):
+        ya, yb = a(float(x), 0.005), b(3.0 * float(x), 0.005)
+    assert yb == pytest.approx(3.0 * ya)
+
+
+def test_spike_gate_rejects_and_relocks() -> None:
+    g = SpikeGate(max_rate=2.0, noise_band=0.05, max_abs=10.0, relock_after=5)
+    assert g(1.0, 0.005) == 1.0
+    assert math.isnan(g(4.0, 0.005))  # impossible jump
+    assert g(1.01, 0.005) == 1.01
+    assert math.isnan(g(50.0, 0.005))  # beyond max_abs
+    out = [g(3.0, 0.005) for _ in range(7)]  # a real step: rejected at first, then accepted
+    assert math.isnan(out[0]) and out[-1] == 3.0
+    assert math.isnan(g(math.nan, 0.005))
+    with pytest.raises(ValueError, match="max_rate"):
+        SpikeGate(max_rate=-1.0, noise_band=1.0, max_abs=1.0)
+
+
+def test_forgetting_and_weights() -> None:
+    assert dynamic_forgetting(0.0, 0.95, 5.0) == 1.0
+    assert dynamic_forgetting(1e9, 0.95, 5.0) == pytest.approx(0.95)
+    assert dynamic_forgetting(-0.3, 0.95, 5.0) == dynamic_forgetting(0.3, 0.95, 5.0)
+    assert sage_husa_weight(0.966, 0) == pytest.approx(1.0)
+    d = [sage_husa_weight(0.966, k) for k in range(1, 500)]
+    assert all(b < a for a, b in zip(d, d[1:])) and d[-1] == pytest.approx(1 - 0.966, rel=1e-3)
+
+
+def test_joseph_and_repair() -> None:
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        A = rng.normal(size=(3, 3))
+        P = A @ A.T + 1e-6 * np.eye(3)
+        K = rng.normal(size=(3, 1)) * 10  # any gain, even a bad one
+        H = np.array([[1.0, 0.0, 0.0]])
+        out = joseph_update(P, K, H, np.array([[0.01]]))
+        np.testing.assert_array_equal(out, out.T)
+        assert np.linalg.eigvalsh(out).min() > -1e-9
+    bad = np.array([[1.0, 2.0], [2.0, 1.0]])  # indefinite
+    fixed = repair_pd(bad, 1e-6)
+    assert np.linalg.eigvalsh(fixed).min() >= 1e-6 - 1e-12
+    assert np.all(repair_pd(np.full((2, 2), np.nan), 1e-3) == np.eye(2) * 1e-3)
+    p11, p12, p22 = repair_pd_2x2(1.0, 5.0, 1.0)
+    assert p11 * p22 - p12 * p12 > 0
+    p11, p12, p22 = repair_pd_2x2(math.nan, 0.0, -1.0, floor=(1e-4, 1e-5))
+    assert (p11, p22) == (1e-4, 1e-5)
+
+
+def test_check_dt() -> None:
+    assert check_dt(0.005) == 0.005
+    for bad in (0.0, -1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="dt_s"):
+            check_dt(bad)

@@ -28,7 +28,7 @@ traction (coasting, braking: the brake force is not measured) or at standstill a
 The train is 18 m long and gravity acts on all of it, while the accelerometer sits on the drive section: θ_train
 is the mass-weighted slope under the train, from the filter's own slope history along the distance travelled
 (the drive section's mass at the current slope, the rest of the mass ``rear_offset_m`` behind). Without it a
-grade transition reads as a mass change (21-33 % mass RMSE on the plant's scenarios instead of 2-11 %). Inside
+grade transition reads as a mass change (21-33 % mass RMSE on the plant's scenarios instead of 3-7 %). Inside
 sharp transitions, where this two-point model is least exact, the mass is not updated.
 
 Gives mass, slope and μ (``extras["mu"]``, ``extras["mu_std"]``), each with 1-sigma standard deviations. Robust

@@ -116,8 +116,8 @@ def main() -> None:
     print(f"plant: {args.sim_s:g} s simulated at {args.hz:g} Hz in blocks of {args.block} ticks")
     print(f"  wall {wall:.3f} s  ->  {args.sim_s / wall:.0f}x real time  ({wall / n_ticks * 1e6:.1f} us per tick,"
           f" build {build * 1e3:.1f} ms)")
-    print(f"  cpu  {cpu:.3f} s  ->  {args.sim_s / cpu:.0f}x real time  ({cpu / n_ticks * 1e6:.1f} us per tick; process CPU"
-          f" time, best of {args.repeat})")
+    print(f"  cpu  {cpu:.3f} s  ->  {args.sim_s / cpu:.0f}x real time  ({cpu / n_ticks * 1e6:.1f} us per tick;"
+          f" process CPU time, best of {args.repeat})")
 
 
 if __name__ == "__main__":

@@ -362,8 +362,34 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     ap.add_argument("--plot-observer", default="dffrls-aekf")
     ap.add_argument("--bars-png", type=Path, default=None, help="also copy the bar chart here (e.g. docs/img/...)")
     ap.add_argument("--episode-png", type=Path, default=None, help="also copy the episode plot here")
+    ap.add_argument("--merge", nargs="+", type=Path, default=None, metavar="DIR",
+                    help="build the table and the bar chart from the episodes.csv of earlier --out directories "
+                    "(no new episodes, except the one recorded episode per controller for the speed plot)")
     ap.add_argument("--quiet", action="store_true")
     return ap.parse_args(argv)
+
+
+def read_episodes(path: Path) -> list[dict[str, Any]]:
+    """Rows of an ``episodes.csv`` with numbers and booleans parsed back."""
+    rows = []
+    with path.open() as fh:
+        for r in csv.DictReader(fh):
+            out: dict[str, Any] = {}
+            for k, v in r.items():
+                if v in ("True", "False"):
+                    out[k] = v == "True"
+                else:
+                    try:
+                        out[k] = int(v)
+                    except ValueError:
+                        try:
+                            out[k] = float(v)
+                        except ValueError:
+                            out[k] = v
+            out["controller"] = str(r["controller"])
+            out["observer"] = str(r["observer"])
+            rows.append(out)
+    return rows
 
 
 def evaluate(args: argparse.Namespace) -> list[dict[str, Any]]:
@@ -373,6 +399,8 @@ def evaluate(args: argparse.Namespace) -> list[dict[str, Any]]:
     kw = json.dumps(args.env_kwargs, sort_keys=True)
     seeds = [args.seed_base + i for i in range(args.episodes)]
     plot_seed = seeds[0] if args.plot_seed is None else args.plot_seed
+    if args.merge:
+        return _merge(args, kw, plot_seed)
     tasks: list[Task] = []
     for ctrl in args.controllers:
         base, _ = _base_name(ctrl)
@@ -410,6 +438,44 @@ def evaluate(args: argparse.Namespace) -> list[dict[str, Any]]:
     if not args.quiet:
         print(md)
         print(f"{len(rows)} episodes in {wall:.0f} s -> {out}")
+    return summary
+
+
+def _merge(args: argparse.Namespace, kw: str, plot_seed: int) -> list[dict[str, Any]]:
+    rows: list[dict[str, Any]] = []
+    seen: set[tuple[str, str, int]] = set()
+    for d in args.merge:
+        for r in read_episodes(Path(d) / "episodes.csv"):
+            key = (r["controller"], r["observer"], int(r["seed"]))
+            if key not in seen:  # the same episode in two directories (e.g. the oracle rows) counts once
+                seen.add(key)
+                rows.append(r)
+    summary = summarise(rows)
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "episodes.csv", rows)
+    write_csv(out / "summary.csv", summary)
+    seeds = sorted({int(r["seed"]) for r in rows})
+    cmd = "python scripts/evaluate.py " + " ".join(sys.argv[1:]) if argv_was_cli() else "(called from Python)"
+    (out / "summary.md").write_text(
+        f"Held-out seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} tracks), {len(rows)} episodes merged from "
+        f"{', '.join(str(d) for d in args.merge)}.\nCommand: `{cmd}`\n\n" + markdown_table(summary)
+    )
+    plot_bars(summary, out / "bars.png")
+    tasks = [Task(c, "oracle" if _base_name(c)[0] == "oracle" else args.plot_observer, plot_seed, kw, True)
+             for c in args.controllers]
+    rec = run_tasks(tasks, min(args.workers, len(tasks)), args.ray, progress=False)
+    plot_episode(rec, out / "episode.png")
+    import shutil
+
+    if args.bars_png:
+        args.bars_png.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(out / "bars.png", args.bars_png)
+    if args.episode_png:
+        args.episode_png.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(out / "episode.png", args.episode_png)
+    if not args.quiet:
+        print((out / "summary.md").read_text())
     return summary
 
 

@@ -43,7 +43,15 @@ def test_training_smoke_saves_reloads_and_evaluates(tmp_path):
     run = _train(tmp_path / "run", 1024)
     assert (run / "model.zip").exists() and (run / "vecnormalize.pkl").exists()
     assert list((run / "checkpoints").glob("model_*_steps.zip"))
-    assert list((run / "tb").rglob("events.out.tfevents*"))
+    events = list((run / "tb").rglob("events.out.tfevents*"))
+    assert events
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    acc = EventAccumulator(str(events[0].parent))
+    acc.Reload()
+    tags = acc.Tags()["scalars"]
+    for tag in ("uuom/cost_rate", "uuom/success_rate", "uuom/trip_time_s", "uuom/violations_per_km/speed_limit"):
+        assert tag in tags, f"{tag} not logged; have {tags}"
     out = tmp_path / "eval"
     summary = evaluate.evaluate(
         evaluate.parse_args(

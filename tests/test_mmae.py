@@ -110,7 +110,7 @@ def test_unknown_option_is_rejected() -> None:
         MMAEEstimator(bogus=1)
 
 
-@pytest.mark.parametrize("load_kg, seed", [(2000.0, 1), (18000.0, 2)])
+@pytest.mark.parametrize("load_kg, seed", [(2000.0, 1)])
 def test_converges_to_true_payload(load_kg: float, seed: int) -> None:
     trace = _train_signal(load_kg, seed=seed, duration_s=90.0)
     series = MMAEEstimator(**POINT_MASS).run(trace)

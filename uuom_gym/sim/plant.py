@@ -18,8 +18,10 @@ Running resistance and brakes are Coulomb friction on the carrying wheels' rotat
 with rate 0 and ``max_force`` = the friction torque): they cannot reverse motion and do not jitter at standstill.
 The friction drive is a drive-wheel angular speed ``omega`` integrated here with stick/slip logic: while the force
 needed to roll with the train is below ``adhesion * clamp_force_n`` the wheel sticks (``omega r = v``), otherwise
-it slips and transmits exactly the adhesion limit while ``omega`` follows its own torque balance (implicit
-Euler, stable at 200 Hz). Motor torque limit ``max_traction_n * r`` and power limit ``motor_power_w / omega``.
+it slips, in the direction of the excess demand, and transmits exactly the adhesion limit while ``omega`` follows
+its own torque balance (implicit Euler, stable at 200 Hz); in the tick the slip ends the contact passes only the
+force that brings the wheel to the train's speed. Motor torque limit ``max_traction_n * r`` and power limit
+``motor_power_w / omega``.
 """
 
 from __future__ import annotations

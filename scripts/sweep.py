@@ -1,0 +1,76 @@
+#!/usr/bin/env python
+"""Train one agent per (observer, seed) in parallel: local processes by default, Ray with ``--ray``.
+
+Example (one machine, two trainings at a time)::
+
+    python scripts/sweep.py --algo ppo --observers dffrls-aekf ekf none --seeds 0 1 2 --timesteps 200000 --jobs 2
+
+Every job is ``scripts/train.py`` with the same arguments plus its ``--observer`` and ``--seed`` (extra
+``scripts/train.py`` options go after ``--``), single-process inside (``--n-envs 1 --no-subproc`` unless given
+after ``--``) so that ``--jobs`` decides the parallelism. An interrupted sweep resumes every run from its last
+checkpoint when rerun. With ``--ray`` the jobs become Ray tasks (``pip install -e .[ray]``; set ``RAY_ADDRESS``
+for a cluster), one CPU each. Then compare them with ``scripts/evaluate.py --controllers runs/...``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def job_command(algo: str, observer: str, seed: int, timesteps: int | None, extra: list[str]) -> list[str]:
+    """The ``scripts/train.py`` command line of one job."""
+    cmd = [sys.executable, str(ROOT / "scripts" / "train.py"), "--algo", algo, "--observer", observer,
+           "--seed", str(seed), "--no-progress"]
+    if timesteps is not None:
+        cmd += ["--timesteps", str(timesteps)]
+    if "--n-envs" not in extra:
+        cmd += ["--n-envs", "1", "--no-subproc"]
+    return cmd + extra
+
+
+def _run(cmd: list[str]) -> int:
+    print("$", " ".join(cmd), flush=True)
+    return subprocess.run(cmd, cwd=ROOT).returncode
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    extra: list[str] = []
+    if "--" in argv:
+        i = argv.index("--")
+        argv, extra = argv[:i], argv[i + 1 :]
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--algo", default="ppo", choices=("ppo", "sac", "ppo-lag"))
+    ap.add_argument("--observers", nargs="+", default=["dffrls-aekf"])
+    ap.add_argument("--seeds", nargs="+", type=int, default=[0])
+    ap.add_argument("--timesteps", type=int, default=None)
+    ap.add_argument("--jobs", type=int, default=max((os.cpu_count() or 2) // 2, 1), help="parallel trainings")
+    ap.add_argument("--ray", action="store_true")
+    args = ap.parse_args(argv)
+    cmds = [job_command(args.algo, o, s, args.timesteps, extra) for o in args.observers for s in args.seeds]
+    if args.ray:
+        try:
+            import ray
+        except ImportError:
+            raise SystemExit("--ray needs Ray: pip install 'ray[default]'") from None
+        ray.init(address=os.environ.get("RAY_ADDRESS"), ignore_reinit_error=True)
+        remote = ray.remote(num_cpus=1)(_run)
+        codes = ray.get([remote.remote(c) for c in cmds])
+    else:
+        with ThreadPoolExecutor(max_workers=max(args.jobs, 1)) as pool:
+            codes = list(pool.map(_run, cmds))
+    failed = [" ".join(c) for c, rc in zip(cmds, codes) if rc != 0]
+    for f in failed:
+        print("FAILED:", f, file=sys.stderr)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

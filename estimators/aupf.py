@@ -64,6 +64,7 @@ import numpy as np
 from uuom_gym.vehicle import VehicleParams
 
 from .base import Estimate, Estimator
+from .filters import check_dt_non_negative, check_number_options, sage_husa_weight
 
 _LOG_2PI = math.log(2.0 * math.pi)
 _N_STATE = 2
@@ -202,15 +203,13 @@ class AUPFEstimator(Estimator):
             "slip_onset_rate_hz": slip_onset_rate_hz,
             "spontaneous_slip_rate_hz": spontaneous_slip_rate_hz,
         }
-        for key, value in {**positive, **others}.items():
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
-                raise AUPFConfigError(f"{key} must be a finite number, got {value!r}")
-        for key, value in positive.items():
-            if value <= 0:
-                raise AUPFConfigError(f"{key} must be > 0, got {value!r}")
-        for key in ("beta", "slip_onset_rate_hz", "spontaneous_slip_rate_hz"):
-            if others[key] < 0:
-                raise AUPFConfigError(f"{key} must be >= 0, got {others[key]!r}")
+        check_number_options(
+            {**positive, **others},
+            AUPFConfigError,
+            positive=positive,
+            non_negative=("beta", "slip_onset_rate_hz", "spontaneous_slip_rate_hz"),
+            reject_bool=True,
+        )
         if not (0.0 < noise_fading < 1.0):
             raise AUPFConfigError(f"noise_fading must be in (0, 1), got {noise_fading!r}")
         if not (1e-4 <= alpha <= 1.0):
@@ -341,8 +340,7 @@ class AUPFEstimator(Estimator):
         accel_normal_mps2: float = math.nan,
     ) -> Estimate:
         """Process one sample (torque, ground speed and motor speed are used); NaN = missing (predict only)."""
-        if not (dt_s >= 0.0) or not math.isfinite(dt_s):
-            raise ValueError(f"aupf: dt_s must be a finite number >= 0, got {dt_s!r}")
+        check_dt_non_negative(dt_s, "aupf")
         if math.isfinite(torque_nm):
             self._last_torque = float(torque_nm)
         torque = self._last_torque
@@ -422,7 +420,7 @@ class AUPFEstimator(Estimator):
         hat_p = np.maximum(c11 - k_i * k_i * s_y, 1e-12)
         # adaptive measurement noise (Sage-Husa, per particle)
         self._k += 1
-        d = (1.0 - self._b) / (1.0 - self._b ** (self._k + 1))
+        d = sage_husa_weight(self._b, self._k)
         self._R = np.clip((1.0 - d) * self._R + d * (innov * innov - pyy), self._r_min, 1e4 * self._r0)
         # 3. importance sampling of the slip; exact Kalman update of the radius given it
         z = rng.standard_normal(n)

@@ -10,6 +10,7 @@ estimator modules (MMAE, IMU-UKF, AUPF) may use them as well.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -22,7 +23,10 @@ __all__ = [
     "repair_pd",
     "repair_pd_2x2",
     "check_dt",
+    "check_dt_non_negative",
+    "check_number_options",
     "first_order_alpha",
+    "hold_last_valid",
 ]
 
 
@@ -33,9 +37,64 @@ def check_dt(dt_s: float) -> float:
     return dt_s
 
 
+def check_dt_non_negative(dt_s: float, who: str) -> float:
+    """Validate a sample interval that may be zero (a repeated time stamp: the estimator then only returns its
+    current estimate): finite and >= 0. ``who`` (the registry name) starts the message."""
+    if not (dt_s >= 0.0) or not math.isfinite(dt_s):
+        raise ValueError(f"{who}: dt_s must be a finite number >= 0, got {dt_s!r}")
+    return dt_s
+
+
+def check_number_options(
+    values: dict[str, object],
+    error: type[Exception],
+    *,
+    positive: Iterable[str] = (),
+    non_negative: Iterable[str] = (),
+    reject_bool: bool = False,
+) -> None:
+    """Validate numeric constructor options, raising ``error`` with a message that names the first bad one.
+
+    Every entry of ``values`` must be a finite ``int``/``float``/``np.floating`` (``bool`` too unless
+    ``reject_bool``); then the keys in ``positive`` must be > 0 and those in ``non_negative`` >= 0, checked in
+    that order.
+    """
+    for key, value in values.items():
+        if (reject_bool and isinstance(value, bool)) or not isinstance(value, (int, float, np.floating)) or (
+            not math.isfinite(value)
+        ):
+            raise error(f"{key} must be a finite number, got {value!r}")
+    for key in positive:
+        if values[key] <= 0:
+            raise error(f"{key} must be > 0, got {values[key]!r}")
+    for key in non_negative:
+        if values[key] < 0:
+            raise error(f"{key} must be >= 0, got {values[key]!r}")
+
+
 def first_order_alpha(cutoff_hz: float, dt_s: float) -> float:
     """Smoothing weight of a discrete first-order low-pass (exact for a step of ``dt_s``), in (0, 1]."""
     return 1.0 - math.exp(-2.0 * math.pi * cutoff_hz * dt_s)
+
+
+def hold_last_valid(x: np.ndarray) -> np.ndarray:
+    """Hold the last valid value of a 1-D float array over its missing (non-finite) samples.
+
+    Samples before the first valid one take that first valid value; an all-missing array gives zeros. The
+    offline counterpart of the zero-order hold of :class:`LowPass2`. Returns ``x`` itself (not a copy) when
+    nothing is missing, else a new array.
+    """
+    bad = ~np.isfinite(x)
+    if not bad.any():
+        return x
+    if bad.all():
+        return np.zeros_like(x)
+    idx = np.where(~bad, np.arange(x.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    first = int(np.argmax(~bad))
+    filled = x[idx]
+    filled[:first] = x[first]
+    return filled
 
 
 class LowPass2:

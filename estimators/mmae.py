@@ -53,6 +53,7 @@ import numpy as np
 from uuom_gym.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
+from .filters import check_dt_non_negative, check_number_options
 
 _LOG_2PI = math.log(2.0 * math.pi)
 _REPAIR_EVERY = 50
@@ -181,15 +182,12 @@ class MMAEEstimator(Estimator):
             "min_traction_n": min_traction_n,
             "standstill_speed_mps": standstill_speed_mps,
         }
-        for key, value in {**positive, **non_negative, "payload_max_kg": payload_max_kg}.items():
-            if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
-                raise MMAEConfigError(f"{key} must be a finite number, got {value!r}")
-        for key, value in positive.items():
-            if value <= 0:
-                raise MMAEConfigError(f"{key} must be > 0, got {value!r}")
-        for key, value in non_negative.items():
-            if value < 0:
-                raise MMAEConfigError(f"{key} must be >= 0, got {value!r}")
+        check_number_options(
+            {**positive, **non_negative, "payload_max_kg": payload_max_kg},
+            MMAEConfigError,
+            positive=positive,
+            non_negative=non_negative,
+        )
         if payload_max_kg <= payload_min_kg:
             raise MMAEConfigError(
                 f"payload_max_kg ({payload_max_kg!r}) must exceed payload_min_kg ({payload_min_kg!r})"
@@ -405,8 +403,7 @@ class MMAEEstimator(Estimator):
         accel_normal_mps2: float = math.nan,
     ) -> Estimate:
         """Process one sample; NaN inputs are treated as missing (``accel_mps2`` is the specific force)."""
-        if not (dt_s >= 0.0) or not math.isfinite(dt_s):
-            raise ValueError(f"mmae: dt_s must be a finite number >= 0, got {dt_s!r}")
+        check_dt_non_negative(dt_s, "mmae")
         have_v = math.isfinite(speed_mps)
         have_f = math.isfinite(accel_mps2)
         have_t = math.isfinite(torque_nm)

@@ -28,7 +28,7 @@ import numpy as np
 from uuom_gym.trace import Trace
 from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
 
-from .filters import LowPass2
+from .filters import LowPass2, dynamic_forgetting
 
 __all__ = ["MuIdentification", "MuIdentificationError", "identify_running_resistance"]
 
@@ -153,7 +153,7 @@ def identify_running_resistance(
         y = F / M - G_MPS2 * sf - m_rot * a / M - a
         h = G_MPS2 * math.sqrt(max(1.0 - sf * sf, 0.0))
         e = y - h * mu
-        lam = delta + (1.0 - delta) * math.exp(-sigma * abs(e))
+        lam = dynamic_forgetting(e, delta, sigma)
         K = P * h / (lam + h * P * h)
         mu += K * e
         P = min((1.0 - K * h) * P / lam, 1.0)

@@ -234,6 +234,8 @@ class _RLSMassBase(Estimator):
         P11 -= k1 * Pf1
         P12 -= k1 * Pf2
         P22 -= k2 * Pf2
+        # the 2x2 repair of ekf.py and specific_force.py (floor variances, |corr| < 0.999), inline on purpose:
+        # a shared helper call measured +2-5 % time per sample in these loops
         if P11 < 1e-14:
             P11 = 1e-14
         if P22 < 1e-14:

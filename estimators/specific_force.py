@@ -253,6 +253,7 @@ class SpecificForceKF(Estimator):
                     eps = 0.0
                 self.rejected = 0
                 R = self.R_v
+                # the speed correction of ekf.SlopeEKF._correct, inline for the same reason as the repair below
                 k1 = P11 / S
                 k2 = P12 / S
                 self.v += k1 * eps
@@ -264,6 +265,8 @@ class SpecificForceKF(Estimator):
                 n12 = a * (P12 - k2 * P11) + k1 * k2 * R
                 n22 = k2 * k2 * P11 - 2.0 * k2 * P12 + P22 + k2 * k2 * R
                 P11, P12, P22 = n11, n12, n22
+        # the 2x2 repair of ekf.py and rls.py (floor variances, |corr| < 0.999), inline on purpose:
+        # a shared helper call measured +2-5 % time per sample in these loops
         if P11 < 1e-14:
             P11 = 1e-14
         if P22 < 1e-14:
@@ -296,6 +299,8 @@ class SpecificForceKF(Estimator):
         Pc -= k1 * Ph1
         Pcd -= k1 * Ph2
         Pd -= k2 * Ph2
+        # the 2x2 repair of the slope layer above (floor variances, |corr| < 0.999), inline on purpose:
+        # a shared helper call measured +2-5 % time per sample in these loops
         if Pc < 1e-14:
             Pc = 1e-14
         if Pd < 1e-16:

@@ -39,24 +39,19 @@ def load_trace(duration_s: float = 100.0) -> Trace:
     return simulate_run("roadtest", seed=0, duration_s=duration_s)
 
 
-def best_time(fn, repeat: int) -> float:
-    """Best of ``repeat`` runs, in CPU seconds of this process (time.process_time): on a shared machine the
-    wall clock also counts the time other processes hold the core; CPU time is what one core spends on it."""
+def best_time(fn, repeat: int, clock=time.process_time) -> float:
+    """Best of ``repeat`` runs, in CPU seconds of this process (time.process_time) by default: on a shared machine
+    the wall clock also counts the time other processes hold the core; CPU time is what one core spends on it."""
     best = math.inf
     for _ in range(repeat):
-        t0 = time.process_time()
+        t0 = clock()
         fn()
-        best = min(best, time.process_time() - t0)
+        best = min(best, clock() - t0)
     return best
 
 
 def best_wall(fn, repeat: int) -> float:
-    best = math.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+    return best_time(fn, repeat, clock=time.perf_counter)
 
 
 def filterpy_slope_ekf(trace: Trace, mass_kg: float):

@@ -48,6 +48,22 @@ PAPER_TIME = {"dffrls-aekf": ("1.10-1.50", "1.31-1.61", "1.32-1.66")}
 FIG_METHODS = ("ffrls", "ekf", "rls-ekf", "dffrls-aekf", "sf-kf")
 
 
+NOT_ESTIMATED = f"{'(not estimated: prior)':<30}"
+
+
+def paper_text(table: dict, name: str, scenario: str, fmt: str) -> str:
+    """The paper's value for an estimator and scenario as ``[value]`` (``""`` where the paper has none)."""
+    paper = table.get(name)
+    pi = SCENARIOS.index(scenario) if scenario in SCENARIOS else None
+    return f"[{paper[pi]:{fmt}}]" if paper and pi is not None else ""
+
+
+def print_rows(usable: list[str], scenarios, res: dict, cell) -> None:
+    """One table row per estimator: ``cell(name, scenario, results of the seeds)`` per scenario column."""
+    for name in usable:
+        print(f"{name:<12} | " + " | ".join(cell(name, sc, res[name][sc]) for sc in scenarios))
+
+
 def record(scenario: str, seed: int, load_kg: float | None, duration_s: float | None):
     """The trace and the plant's truth log of one run."""
     from uuom_gym.sim.recording import simulate_run
@@ -168,55 +184,41 @@ def main(argv: list[str] | None = None) -> int:
               f"(mean over seeds; paper value in brackets)")
         hdr = " | ".join(f"{sc:^30}" for sc in scenarios)
         print(f"\n### mass RMSE: kg (%), final error %\n{'estimator':<12} | {hdr}")
-        for name in usable:
-            cells = []
-            for i, sc in enumerate(scenarios):
-                rs = res[name][sc]
-                if not rs[0]["provides_mass"]:
-                    cells.append(f"{'(not estimated: prior)':<30}")
-                    continue
-                kg = np.mean([r["mass_rmse_kg"] for r in rs])
-                pct = np.mean([r["mass_rmse_pct"] for r in rs])
-                fin = np.mean([r["mass_final_pct"] for r in rs])
-                paper = PAPER_MASS.get(name)
-                pi = SCENARIOS.index(sc) if sc in SCENARIOS else None
-                ptxt = f"[{paper[pi]:g}]" if paper and pi is not None else ""
-                cells.append(f"{kg:6.0f} ({pct:4.1f}%) {fin:+5.1f}% {ptxt:>7}")
-            print(f"{name:<12} | " + " | ".join(cells))
+
+        def mass_cell(name: str, sc: str, rs: list[dict]) -> str:
+            if not rs[0]["provides_mass"]:
+                return NOT_ESTIMATED
+            kg = np.mean([r["mass_rmse_kg"] for r in rs])
+            pct = np.mean([r["mass_rmse_pct"] for r in rs])
+            fin = np.mean([r["mass_final_pct"] for r in rs])
+            ptxt = paper_text(PAPER_MASS, name, sc, "g")
+            return f"{kg:6.0f} ({pct:4.1f}%) {fin:+5.1f}% {ptxt:>7}"
+
+        print_rows(usable, scenarios, res, mass_cell)
         print(f"\n### slope RMSE, deg\n{'estimator':<12} | {hdr}")
-        for name in usable:
-            cells = []
-            for sc in scenarios:
-                rs = res[name][sc]
-                if not rs[0]["provides_slope"]:
-                    cells.append(f"{'(not estimated: prior)':<30}")
-                    continue
-                v = np.mean([r["slope_rmse_deg"] for r in rs])
-                paper = PAPER_SLOPE.get(name)
-                pi = SCENARIOS.index(sc) if sc in SCENARIOS else None
-                ptxt = f"[{paper[pi]:g}]" if paper and pi is not None else ""
-                cells.append(f"{v:8.3f} {ptxt:>8}{'':>13}")
-            print(f"{name:<12} | " + " | ".join(cells))
+
+        def slope_cell(name: str, sc: str, rs: list[dict]) -> str:
+            if not rs[0]["provides_slope"]:
+                return NOT_ESTIMATED
+            v = np.mean([r["slope_rmse_deg"] for r in rs])
+            return f"{v:8.3f} {paper_text(PAPER_SLOPE, name, sc, 'g'):>8}{'':>13}"
+
+        print_rows(usable, scenarios, res, slope_cell)
         print(f"\n### slope RMSE, deg, against the plant's effective slope (mass-weighted over the train; analysis only)"
               f"\n{'estimator':<12} | {hdr}")
-        for name in usable:
-            cells = []
-            for sc in scenarios:
-                rs = res[name][sc]
-                v = np.mean([r["slope_vs_train_rmse_deg"] for r in rs])
-                cells.append(f"{v:8.3f}{'':>22}" if rs[0]["provides_slope"] else f"{'(not estimated: prior)':<30}")
-            print(f"{name:<12} | " + " | ".join(cells))
+
+        def train_slope_cell(name: str, sc: str, rs: list[dict]) -> str:
+            v = np.mean([r["slope_vs_train_rmse_deg"] for r in rs])
+            return f"{v:8.3f}{'':>22}" if rs[0]["provides_slope"] else NOT_ESTIMATED
+
+        print_rows(usable, scenarios, res, train_slope_cell)
         print(f"\n### time for the whole run, s (paper: MATLAB)\n{'estimator':<12} | {hdr}")
-        for name in usable:
-            cells = []
-            for sc in scenarios:
-                rs = res[name][sc]
-                v = np.mean([r["time_s"] for r in rs])
-                paper = PAPER_TIME.get(name)
-                pi = SCENARIOS.index(sc) if sc in SCENARIOS else None
-                ptxt = f"[{paper[pi]}]" if paper and pi is not None else ""
-                cells.append(f"{v:8.3f} {ptxt:>11}{'':>10}")
-            print(f"{name:<12} | " + " | ".join(cells))
+
+        def time_cell(name: str, sc: str, rs: list[dict]) -> str:
+            v = np.mean([r["time_s"] for r in rs])
+            return f"{v:8.3f} {paper_text(PAPER_TIME, name, sc, ''):>11}{'':>10}"
+
+        print_rows(usable, scenarios, res, time_cell)
         bad = [n for n in usable for sc in scenarios for r in res[n][sc] if not r["finite"]]
         if bad:
             print(f"\nNON-FINITE OUTPUT: {sorted(set(bad))}")

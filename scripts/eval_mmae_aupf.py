@@ -11,36 +11,17 @@ Prints Markdown tables (the numbers in docs/mmae_aupf.md) and writes ``docs/img/
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from estimators.aupf import AUPFEstimator
 from estimators.mmae import MMAEEstimator
+from estimators.plant_scenarios import station_trace
 from uuom_gym.sim.plant import PlantConfig
 from uuom_gym.sim.recording import simulate_run
-from uuom_gym.sim.scenarios import SpeedProfile, scenario
-from uuom_gym.trace import Trace
 
 IMG = Path(__file__).resolve().parent.parent / "docs" / "img"
-
-
-def station_trace(load1_kg: float, load2_kg: float, seed: int) -> Trace:
-    """section1 driven as two runs: stop at a station on the level, load, drive on up the grade."""
-    base = scenario("section1")
-    stop = SpeedProfile(((0.0, 1.0), (25.0, 1.0), (36.0, 0.0)))
-    first = simulate_run(replace(base, load_kg=load1_kg, speed_profile=stop, duration_s=70.0), seed=seed)
-    second = simulate_run(
-        replace(base, load_kg=load2_kg, start_s_m=float(first["position_m"][-1]), duration_s=90.0), seed=seed
-    )
-    dt = first["t_s"][1] - first["t_s"][0]
-    cols = {}
-    for key in first.columns:
-        if key in second.columns:
-            tail = second[key] + (first["t_s"][-1] + dt if key == "t_s" else 0.0)
-            cols[key] = np.concatenate([first[key], tail])
-    return Trace(cols, source="plant: loading at a station")
 
 
 def time_to_within(t: np.ndarray, est: np.ndarray, truth: np.ndarray, frac: float, start_s: float = 0.0) -> float:

@@ -154,9 +154,9 @@ def main(argv: list[str] | None = None) -> int:
     train, test, used = tuning_sets(args)
     mean_len_s = float(np.mean([tr["t_s"][-1] - tr["t_s"][0] for tr in train + test]))
     print(f"source: {used}; tuning on {', '.join(tr.source for tr in train)}; scoring on "
-          f"{', '.join(tr.source for tr in test)} ({mean_len_s:.0f} s on average); objective: mean RMS slope "
-          f"error (deg) after {args.settle_s:.0f} s; budget {args.budget} evaluations; {args.seeds} tuner seeds",
-          flush=True)
+          f"{', '.join(tr.source for tr in test)} ({mean_len_s:.0f} s on average); objective: mean RMS error "
+          f"(deg) of the imu-ukf slope output after {args.settle_s:.0f} s; budget {args.budget} evaluations; "
+          f"{args.seeds} tuner seeds", flush=True)
     truth = "slope_deg" if args.target == "slope" else "imu_pitch_deg"
     print(f"target: {truth}", flush=True)
     default_train = slope_rmse_deg(train, IMU_UKF_DEFAULTS, args.settle_s, truth)

@@ -11,7 +11,10 @@ from estimators.filters import (
     LowPass2,
     SpikeGate,
     check_dt,
+    check_dt_non_negative,
+    check_number_options,
     dynamic_forgetting,
+    hold_last_valid,
     joseph_update,
     repair_pd,
     repair_pd_2x2,
@@ -88,3 +91,39 @@ def test_check_dt() -> None:
     for bad in (0.0, -1.0, math.nan, math.inf):
         with pytest.raises(ValueError, match="dt_s"):
             check_dt(bad)
+
+
+def test_check_dt_non_negative() -> None:
+    assert check_dt_non_negative(0.0, "x") == 0.0
+    assert check_dt_non_negative(0.005, "x") == 0.005
+    for bad in (-0.001, math.nan, math.inf):
+        with pytest.raises(ValueError, match="mmae: dt_s"):
+            check_dt_non_negative(bad, "mmae")
+
+
+class _OptionError(ValueError):
+    pass
+
+
+def test_check_number_options_names_the_first_bad_option() -> None:
+    check_number_options({"a": 1, "b": 0.0, "c": np.float64(-2.0)}, _OptionError, positive=("a",),
+                         non_negative=("b",))
+    with pytest.raises(_OptionError, match="b must be a finite number, got nan"):
+        check_number_options({"a": 1.0, "b": math.nan, "c": math.inf}, _OptionError)
+    with pytest.raises(_OptionError, match="a must be a finite number"):
+        check_number_options({"a": "1"}, _OptionError)
+    with pytest.raises(_OptionError, match="a must be > 0, got 0"):
+        check_number_options({"a": 0, "b": -1.0}, _OptionError, positive=("a",), non_negative=("b",))
+    with pytest.raises(_OptionError, match="b must be >= 0, got -1.0"):
+        check_number_options({"a": 1, "b": -1.0}, _OptionError, positive=("a",), non_negative=("b",))
+    check_number_options({"flag": True}, _OptionError)  # bool is an int unless told otherwise
+    with pytest.raises(_OptionError, match="flag must be a finite number, got True"):
+        check_number_options({"flag": True}, _OptionError, reject_bool=True)
+
+
+def test_hold_last_valid() -> None:
+    x = np.array([1.0, 2.0, 3.0])
+    assert hold_last_valid(x) is x  # nothing missing: no copy
+    y = hold_last_valid(np.array([np.nan, np.inf, 4.0, np.nan, 5.0, -np.inf]))
+    assert y.tolist() == [4.0, 4.0, 4.0, 4.0, 5.0, 5.0]  # leading gap takes the first valid value
+    assert hold_last_valid(np.full(3, np.nan)).tolist() == [0.0, 0.0, 0.0]

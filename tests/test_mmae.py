@@ -217,24 +217,9 @@ def test_converges_on_the_plant(name: str, load_kg: float) -> None:
 def _station_trace(load1_kg: float, load2_kg: float, seed: int = 5) -> Trace:
     """Two plant runs joined at a station stop: the train stops on the level, is loaded, drives on up the grade."""
     pytest.importorskip("uuom_gym.sim.recording")
-    from dataclasses import replace
+    from estimators.plant_scenarios import station_trace
 
-    from uuom_gym.sim.recording import simulate_run
-    from uuom_gym.sim.scenarios import SpeedProfile, scenario
-
-    base = scenario("section1")
-    stop = SpeedProfile(((0.0, 1.0), (25.0, 1.0), (36.0, 0.0)))
-    first = simulate_run(replace(base, load_kg=load1_kg, speed_profile=stop, duration_s=70.0), seed=seed)
-    second = simulate_run(
-        replace(base, load_kg=load2_kg, start_s_m=float(first["position_m"][-1]), duration_s=90.0), seed=seed
-    )
-    dt = first["t_s"][1] - first["t_s"][0]
-    cols = {}
-    for key in first.columns:
-        if key in second.columns:
-            tail = second[key] + (first["t_s"][-1] + dt if key == "t_s" else 0.0)
-            cols[key] = np.concatenate([first[key], tail])
-    return Trace(cols, source="plant: loading at a station")
+    return station_trace(load1_kg, load2_kg, seed)
 
 
 def test_recovers_after_loading_at_a_station_on_the_plant() -> None:

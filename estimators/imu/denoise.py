@@ -27,6 +27,8 @@ import math
 import numpy as np
 import pywt
 
+from ..filters import hold_last_valid
+
 __all__ = [
     "DenoiseError",
     "SlidingWaveletDenoiser",
@@ -133,21 +135,6 @@ def _denoise_finite(x: np.ndarray, wavelet: str, level: int, noise_scaling: str,
     return pywt.waverec(out, wavelet, mode="symmetric")[:n]
 
 
-def _fill_nan(x: np.ndarray) -> np.ndarray:
-    """Hold the last valid value over missing samples (the first valid one before it); all-NaN gives zeros."""
-    bad = ~np.isfinite(x)
-    if not bad.any():
-        return x
-    if bad.all():
-        return np.zeros_like(x)
-    idx = np.where(~bad, np.arange(x.size), 0)
-    np.maximum.accumulate(idx, out=idx)
-    first = int(np.argmax(~bad))
-    filled = x[idx]
-    filled[:first] = x[first]
-    return filled
-
-
 def wavelet_denoise(x: np.ndarray, wavelet: str = "sym4", level: int = 5, *, noise_scaling: str = "level",
                     function: str = "improved", alpha: float = 2.0) -> np.ndarray:
     """Denoise a whole signal (batch form).
@@ -177,7 +164,7 @@ def wavelet_denoise(x: np.ndarray, wavelet: str = "sym4", level: int = 5, *, noi
         raise DenoiseError(f"signal must be one-dimensional, got shape {x.shape}")
     if x.size < 2:
         return np.nan_to_num(x.copy())
-    return _denoise_finite(_fill_nan(x), wavelet, level, noise_scaling, function, alpha)
+    return _denoise_finite(hold_last_valid(x), wavelet, level, noise_scaling, function, alpha)
 
 
 class SlidingWaveletDenoiser:
@@ -253,7 +240,7 @@ class SlidingWaveletDenoiser:
         copies of the held input.
         """
         x = np.asarray(x, dtype=np.float64)
-        out = _fill_nan(x.copy()) if x.size else x.copy()
+        out = hold_last_valid(x.copy()) if x.size else x.copy()
         pos = 0
         for v in x:
             ready = self.push(v)

@@ -33,6 +33,7 @@ import numpy as np
 from uuom_gym.trace import Trace
 from uuom_gym.vehicle import G_MPS2
 
+from ..filters import hold_last_valid
 from .denoise import SlidingWaveletDenoiser
 
 __all__ = [
@@ -304,8 +305,8 @@ class MotionStateRecognizer:
         if self.denoise:
             den = SlidingWaveletDenoiser(256, self.hop)
             a = den.process(a)
-        a = _hold_nan(a)
-        v = _hold_nan(v)
+        a = hold_last_valid(np.asarray(a, dtype=np.float64))
+        v = hold_last_valid(v)
         n = a.size
         ends = np.arange(self.hop - 1, n, self.hop)
         ends = ends[ends >= self.window - 1]
@@ -443,17 +444,3 @@ class MotionStateRecognizer:
         full = np.zeros((p.shape[0], 4))
         full[:, clf.classes_.astype(int)] = p
         return full
-
-
-def _hold_nan(x: np.ndarray) -> np.ndarray:
-    x = np.asarray(x, dtype=np.float64).copy()
-    bad = ~np.isfinite(x)
-    if bad.any():
-        if bad.all():
-            return np.zeros_like(x)
-        idx = np.where(~bad, np.arange(x.size), 0)
-        np.maximum.accumulate(idx, out=idx)
-        first = int(np.argmax(~bad))
-        x = x[idx]
-        x[:first] = x[first]
-    return x

@@ -75,7 +75,11 @@ class _ModelPolicy:
     def __init__(self, run_dir: Path) -> None:
         import pickle
 
+        import torch
+
         from agents.algos import algo_class
+
+        torch.set_num_threads(1)  # one episode per process: threads would only fight over the cores
 
         cfg = json.loads((run_dir / "config.json").read_text()) if (run_dir / "config.json").exists() else {}
         self.shield = bool(cfg.get("shield", False))
@@ -287,11 +291,11 @@ def plot_bars(summary: list[dict[str, Any]], path: Path) -> None:
     ctrls = [c for c in dict.fromkeys(r["controller"] for r in summary) if c != "oracle"]
     metrics = [
         ("success_rate", "success rate"),
-        ("overspeed_trips", "overspeed trips"),
+        ("overspeed_trip_rate", "overspeed trips (fraction of runs)"),
         ("cost_rate", "cost rate (per step)"),
         ("trip_time_vs_oracle", "trip time / oracle"),
     ]
-    fig, axes = plt.subplots(1, len(metrics), figsize=(4.2 * len(metrics), 3.8))
+    fig, axes = plt.subplots(1, len(metrics), figsize=(4.2 * len(metrics), 4.2))
     width = 0.8 / max(len(ctrls), 1)
     x = np.arange(len(observers))
     for ax, (key, title) in zip(axes, metrics):
@@ -299,7 +303,12 @@ def plot_bars(summary: list[dict[str, Any]], path: Path) -> None:
             vals = []
             for o in observers:
                 m = [r for r in summary if r["controller"] == c and r["observer"] == o]
-                vals.append(m[0][key] if m else np.nan)
+                if not m:
+                    vals.append(np.nan)
+                elif key == "overspeed_trip_rate":
+                    vals.append(m[0]["overspeed_trips"] / max(m[0]["episodes"], 1))
+                else:
+                    vals.append(m[0][key])
             ax.bar(x + (i - (len(ctrls) - 1) / 2) * width, vals, width, label=c)
         if key == "trip_time_vs_oracle":
             ax.axhline(1.0, color="k", lw=0.8, ls="--")
@@ -307,9 +316,10 @@ def plot_bars(summary: list[dict[str, Any]], path: Path) -> None:
         ax.set_xticks(x, observers, rotation=35, ha="right", fontsize=8)
         ax.set_title(title, fontsize=10)
         ax.grid(axis="y", alpha=0.3)
-    axes[0].legend(fontsize=7, loc="lower left")
+    handles, labels = axes[-1].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=8, loc="lower center", ncol=len(labels), frameon=False)
     fig.suptitle("UUOM-Track-v0: controllers x observers on the same held-out tracks", fontsize=11)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

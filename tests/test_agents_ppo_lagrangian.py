@@ -5,11 +5,15 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+import torch as th
 from gymnasium import spaces
 from stable_baselines3 import PPO
 from stable_baselines3.common.env_util import make_vec_env
 
 from agents.ppo_lagrangian import PPOLagrangian
+
+# Tiny networks: extra torch threads only fight the other test processes for the cores.
+th.set_num_threads(1)
 
 
 class GreedyCostEnv(gym.Env):

@@ -24,6 +24,16 @@ Choices where the paper is silent or wrong (spec §5.1):
   ``min_speed_mps``), when traction is below ``min_traction_fraction`` of the maximum (braking or coasting: the
   unknown brake force is not in the model) or with a missing torque/speed sample. Forgetting never inflates a
   parameter's variance above its prior variance (bounded covariance).
+- **Swinging load.** The payload hangs on chains (``chain_length_m``, default 2 m, the plant's): after every
+  change of acceleration it swings, and its acceleration differs from the measured dv/dt of the drive section
+  by as much as the acceleration itself for seconds — exactly when the regression has its only excitation (the
+  start). The front end simulates the pendulum forced by dv/dt and the regression is written for the load's
+  acceleration ``a_L = −g·sway − damping``:  ``T/r − m_rot a − M_rigid (a − a_L) = M a_L + gravity + resistance``
+  (``M_rigid`` = empty mass − ``hook_mass_kg``). Without it ``dffrls-aekf`` had a 30 % mean mass error in the
+  environment's episodes, worse than the fixed prior. ``chain_length_m=0`` is the paper's point mass.
+- **Mass only from accelerations** (``min_accel_mps2``, default 0.05 m/s² for ``dffrls``, 0 for the
+  baselines): below it a sample corrects only the grade (Schmidt consider update: zero mass gain, mass
+  variance unchanged): at constant speed a grade change cannot be told from a mass change.
 - **Physical range.** M is clamped to ``[empty_mass, max_mass]`` of the vehicle; ``sin(θ+θ_μ)`` to ±0.5.
 - **Robustness.** Physically impossible jumps of torque or speed are rejected as spikes (:class:`SpikeGate`) and
   treated as missing; NaN samples only advance the filters; the output is never NaN.
@@ -55,24 +65,44 @@ class RegressionFrontEnd:
         Corner frequency of the second-order low-pass applied to ``T/r`` and to speed (before differentiating).
     min_speed_mps, min_traction_fraction : float
         Excitation / model-validity thresholds (see module docstring).
+    chain_length_m : float
+        Pendulum length of the load hanging on chains (0: no load-swing model, ``load_accel_mps2 = accel_mps2``).
+    sway_damping_ratio : float
+        Damping ratio of the load swing (the plant's anti-sway damper).
 
     Attributes
     ----------
     force_n, speed_mps, accel_mps2 : float
         The latest filtered traction force, speed and speed derivative.
+    sway, sway_rate, load_accel_mps2 : float
+        Simulated load swing (rad, rad/s, small angles) and the load's filtered along-track acceleration.
     valid : bool
         Whether the latest sample may be used for a regression update.
     """
 
     __slots__ = ("r", "lp_force", "lp_speed", "gate_torque", "gate_speed", "min_speed", "min_force",
                  "force_n", "speed_mps", "accel_mps2", "valid", "_prev_vf", "_n_valid_in", "_n_missing",
-                 "settle_samples")
+                 "settle_samples", "swing", "chain_length", "sway_damping", "lp_fast", "lp_aload", "sway",
+                 "sway_rate", "_prev_fast", "load_accel_mps2", "sway_h_max")
 
     def __init__(self, vehicle: VehicleParams, cutoff_hz: float = 1.0, min_speed_mps: float = 0.05,
-                 min_traction_fraction: float = 0.02) -> None:
+                 min_traction_fraction: float = 0.02, chain_length_m: float = 2.0,
+                 sway_damping_ratio: float = 0.05) -> None:
         self.r = vehicle.drive_wheel_radius_m
         self.lp_force = LowPass2(cutoff_hz)
         self.lp_speed = LowPass2(cutoff_hz)
+        if not (chain_length_m >= 0.0 and math.isfinite(chain_length_m)):
+            raise ValueError(
+                f"chain_length_m must be a finite number >= 0 (0: no load-swing model), got {chain_length_m!r}")
+        if not (sway_damping_ratio >= 0.0 and math.isfinite(sway_damping_ratio)):
+            raise ValueError(f"sway_damping_ratio must be a finite number >= 0, got {sway_damping_ratio!r}")
+        self.swing = chain_length_m > 0.0
+        self.chain_length = float(chain_length_m)
+        # damping force per unit mass = 2 zeta omega0 L sway_rate, omega0 = sqrt(g / L)
+        self.sway_damping = 2.0 * sway_damping_ratio * math.sqrt(G_MPS2 * chain_length_m)
+        self.sway_h_max = 0.5 * math.sqrt(chain_length_m / G_MPS2)  # integration step with omega h = 0.5
+        self.lp_fast = LowPass2(5.0)  # speed for the pendulum's forcing: well above the swing (0.35 Hz)
+        self.lp_aload = LowPass2(cutoff_hz)
         max_torque = vehicle.max_traction_n * self.r
         # torque may step when the driver changes the command; speed may not jump (a <= ~3 m/s^2)
         self.gate_torque = SpikeGate(max_rate=50.0 * max_torque, noise_band=0.5 * max_torque,
@@ -96,6 +126,12 @@ class RegressionFrontEnd:
         self._prev_vf = math.nan
         self._n_valid_in = 0
         self._n_missing = 0
+        self.lp_fast.reset()
+        self.lp_aload.reset()
+        self.sway = 0.0
+        self.sway_rate = 0.0
+        self._prev_fast = math.nan
+        self.load_accel_mps2 = 0.0
 
     def step(self, torque_nm: float, speed_mps: float, dt_s: float) -> bool:
         """Filter one sample; return :attr:`valid`."""
@@ -113,6 +149,28 @@ class RegressionFrontEnd:
         self.force_n = F
         self.speed_mps = vf
         self.accel_mps2 = a
+        if self.swing:
+            # The load hangs on chains: a pendulum forced by the train's acceleration. Its along-track
+            # acceleration is -g sway - damping (small angles), not the measured dv/dt of the drive section;
+            # after a start the difference is of the order of the acceleration itself for several seconds.
+            vfast = self.lp_fast(v, dt_s)
+            pf = self._prev_fast
+            self._prev_fast = vfast
+            a_fast = (vfast - pf) / dt_s if pf == pf else 0.0
+            # semi-implicit Euler of L sway'' = a_load - a_train (omega h = 0.011 at 200 Hz); slower sample rates
+            # are sub-stepped to omega h <= 0.5 so the pendulum stays stable
+            L = self.chain_length
+            sw, sr = self.sway, self.sway_rate
+            a_load = -G_MPS2 * sw - self.sway_damping * sr
+            n_sub = 1 if dt_s <= self.sway_h_max else int(math.ceil(dt_s / self.sway_h_max))
+            h = dt_s / n_sub
+            for _ in range(n_sub):
+                sr += h * (-G_MPS2 * sw - self.sway_damping * sr - a_fast) / L
+                sw += h * sr
+            self.sway, self.sway_rate = sw, sr
+            self.load_accel_mps2 = self.lp_aload(a_load, dt_s)
+        else:
+            self.load_accel_mps2 = a
         # short dropouts only skip the sample; a gap longer than 0.1 s (20 samples) restarts the settle count,
         # because the held filter states no longer describe the motion
         if raw_ok:
@@ -145,6 +203,10 @@ class _RLSMassBase(Estimator):
         prior_slope_std_rad: float = 0.1,
         running_resistance: float | None = None,
         residual_std_mps2: float = 0.3,
+        chain_length_m: float = 2.0,
+        sway_damping_ratio: float = 0.05,
+        hook_mass_kg: float = 300.0,
+        min_accel_mps2: float = 0.0,
         **options: Any,
     ) -> None:
         super().__init__(vehicle, **options)
@@ -176,7 +238,15 @@ class _RLSMassBase(Estimator):
         self.phi2 = -G_MPS2 * math.sqrt(1.0 + self.mu * self.mu)
         self.p1_min = self.m_ref / self.mass_max
         self.p1_max = self.m_ref / self.mass_min
-        self.front = RegressionFrontEnd(v, cutoff_hz, min_speed_mps, min_traction_fraction)
+        if not (0.0 <= hook_mass_kg <= v.empty_mass_kg):
+            raise ValueError(f"hook_mass_kg must be in [0, empty_mass_kg], got {hook_mass_kg!r}")
+        # the part of the train that moves with the drive section (all but the hook block and the payload)
+        self.rigid_mass = v.empty_mass_kg - float(hook_mass_kg)
+        self.front = RegressionFrontEnd(v, cutoff_hz, min_speed_mps, min_traction_fraction, chain_length_m,
+                                        sway_damping_ratio)
+        if not (min_accel_mps2 >= 0.0 and math.isfinite(min_accel_mps2)):
+            raise ValueError(f"min_accel_mps2 must be a finite number >= 0, got {min_accel_mps2!r}")
+        self.min_accel = float(min_accel_mps2)
         self.additive = False
         self.q_mass = 0.0
         self.q_grade = 0.0
@@ -201,11 +271,14 @@ class _RLSMassBase(Estimator):
         """One regression update from the front end's latest filtered sample (assumed valid)."""
         fe = self.front
         m_ref = self.m_ref
-        f1 = (fe.force_n - self.m_rot * fe.accel_mps2) / m_ref
+        # with the swinging load: T/r = M_rigid a + m_load a_load + m_rot a + gravity + resistance, and
+        # m_load = M - M_rigid, so  a_load = (T/r - m_rot a - M_rigid (a - a_load)) / M - g ...
+        a_load = fe.load_accel_mps2
+        f1 = (fe.force_n - self.m_rot * fe.accel_mps2 - self.rigid_mass * (fe.accel_mps2 - a_load)) / m_ref
         f2 = self.phi2
         p1 = self.p1
         p2 = self.p2
-        e = fe.accel_mps2 - f1 * p1 - f2 * p2
+        e = a_load - f1 * p1 - f2 * p2
         lm, lg = self._forgetting(e)
         P11, P12, P22 = self.P11, self.P12, self.P22
         if self.additive:
@@ -226,14 +299,22 @@ class _RLSMassBase(Estimator):
         Pf1 = P11 * f1 + P12 * f2
         Pf2 = P12 * f1 + P22 * f2
         s = self.R + f1 * Pf1 + f2 * Pf2
-        k1 = Pf1 / s
         k2 = Pf2 / s
-        p1 += k1 * e
-        p2 += k2 * e
-        # P = P- − K φᵀ P-, written on the three distinct entries (stays symmetric by construction)
-        P11 -= k1 * Pf1
-        P12 -= k1 * Pf2
-        P22 -= k2 * Pf2
+        if -self.min_accel < a_load < self.min_accel:
+            # no acceleration, no mass information: a grade change at constant speed looks exactly like a mass
+            # change, so only the grade is corrected (Schmidt "consider" update: the mass is a considered
+            # parameter, its gain is zero and its variance unchanged; P stays PD and consistent)
+            p2 += k2 * e
+            P12 -= k2 * Pf1
+            P22 -= k2 * Pf2
+        else:
+            k1 = Pf1 / s
+            p1 += k1 * e
+            p2 += k2 * e
+            # P = P- − K φᵀ P-, written on the three distinct entries (stays symmetric by construction)
+            P11 -= k1 * Pf1
+            P12 -= k1 * Pf2
+            P22 -= k2 * Pf2
         # the 2x2 repair of ekf.py and specific_force.py (floor variances, |corr| < 0.999), inline on purpose:
         # a shared helper call measured +2-5 % time per sample in these loops
         if P11 < 1e-14:
@@ -344,6 +425,9 @@ class DFFRLSMassEstimator(_RLSMassBase):
         As :class:`RLSMassEstimator`.
 
     Gives mass and slope; ``forgetting`` attribute holds the current λ_k.
+
+    Defaults that differ from the baselines (chosen on environment replays, seeds 300000-300029, and checked on
+    the plant's scenarios): ``cutoff_hz=1.0``, ``residual_std_mps2=0.1``, ``min_accel_mps2=0.05``.
     """
 
     name: ClassVar[str] = "dffrls"
@@ -361,6 +445,14 @@ class DFFRLSMassEstimator(_RLSMassBase):
             raise ValueError(f"form must be 'additive' or 'multiplicative', got {form!r}")
         if not (grade_rate_std_rps >= 0.0 and math.isfinite(grade_rate_std_rps)):
             raise ValueError(f"grade_rate_std_rps must be a finite number >= 0, got {grade_rate_std_rps!r}")
+        # tighter residual and a wider regression band than the RLS/FFRLS baselines: with the swinging load in
+        # the model the regression residual is small, and the start-up acceleration (the main excitation on a
+        # short trip) is over within ~2 s (chosen on env replays, seeds 300000-300029, and the plant scenarios)
+        kwargs.setdefault("cutoff_hz", 1.0)
+        kwargs.setdefault("residual_std_mps2", 0.1)
+        # below this |acceleration| only the grade is corrected (see _rls_step); chosen among 0.02-0.1 on the
+        # same env replays, it also lowers the mass RMSE on the paper's scenarios
+        kwargs.setdefault("min_accel_mps2", 0.05)
         self.delta = float(delta)
         self.sigma = float(sigma)
         self.vector_forgetting = bool(vector_forgetting)

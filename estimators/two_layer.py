@@ -94,7 +94,8 @@ class DFFRLSAEKF(_TwoLayer):
     """``dffrls-aekf``: the paper's two-layer method — DFFRLS mass → Sage-Husa AEKF slope.
 
     Gives mass (DFFRLS layer, dynamic forgetting, vector forgetting, bounded covariance, clamped to the vehicle's
-    mass range) and slope (Sage-Husa AEKF, fading factor 0.966, using the DFFRLS mass at every step), each with
+    mass range; the regression models the load swinging on its chains and corrects the mass only from samples
+    with |dv/dt| >= 0.05 m/s², see :mod:`estimators.rls`) and slope (Sage-Husa AEKF, fading factor 0.966, using the DFFRLS mass at every step), each with
     its 1-sigma standard deviation. Options: ``mass_*`` as :class:`~estimators.rls.DFFRLSMassEstimator`
     (``mass_delta``, ``mass_sigma``, ``mass_vector_forgetting`` ...), ``slope_*`` as
     :class:`~estimators.aekf.SageHusaAEKF` (``slope_fading``, ``slope_adapt_q`` ...).

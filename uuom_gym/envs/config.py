@@ -35,6 +35,7 @@ def default_config() -> dict[str, Any]:
         # --- observation layer --------------------------------------------------------------------------------
         "observer": "dffrls-aekf",
         "observer_options": {},
+        "slip_observation": "sensors",
         # --- task -------------------------------------------------------------------------------------------
         "scenario": None,
         "track_length_m": (100.0, 300.0),
@@ -93,6 +94,9 @@ CONFIG_DOCS: dict[str, str] = {
     "observer": "What the agent is told about mass and slope: 'dffrls-aekf', any registered estimator name, "
     "'oracle' (true values) or 'none' (the prior only).",
     "observer_options": "Keyword options passed to estimators.make(observer, vehicle, **options).",
+    "slip_observation": "Observation entry 11: 'sensors' (apparent slip velocity from the motor and ground-speed "
+    "encoders / 0.5 m/s) or 'estimator' (the observer's estimated slip ratio, e.g. observer='aupf'; falls back to "
+    "the sensors when the observer gives none).",
     "scenario": "None for a random track per reset, or 'section1' | 'section2' | 'roadtest' (paper's fixed runs).",
     "track_length_m": "(low, high) length of random tracks in metres (the spec's roadways allow 200-1500 m; the "
     "default is shorter so episodes last a few hundred to a few thousand policy steps).",
@@ -226,6 +230,10 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
         raise ConfigError(f"config key 'observer' must be a string, got {cfg['observer']!r}")
     if not isinstance(cfg["observer_options"], Mapping):
         raise ConfigError(f"config key 'observer_options' must be a dict, got {cfg['observer_options']!r}")
+    if cfg["slip_observation"] not in ("sensors", "estimator"):
+        raise ConfigError(
+            f"config key 'slip_observation' must be 'sensors' or 'estimator', got {cfg['slip_observation']!r}"
+        )
     if cfg["scenario"] is not None and cfg["scenario"] not in SCENARIOS:
         raise ConfigError(
             f"config key 'scenario' must be None or one of {', '.join(SCENARIOS)}, got {cfg['scenario']!r}"

@@ -99,6 +99,8 @@ class Observer:
 
     def __init__(self, vehicle: VehicleParams) -> None:
         self.vehicle = vehicle
+        self.extras: dict[str, float] = {}
+        """What the method estimates beyond mass and slope (e.g. ``slip_ratio`` from ``aupf``), finite floats."""
 
     def reset(self) -> None:
         """Forget the previous episode."""
@@ -159,6 +161,7 @@ class EstimatorObserver(Observer):
     def reset(self) -> None:
         self.estimator.reset()
         self._last = self.estimator.estimate
+        self.extras = {}
 
     def observe(self, measured, dt_s, true_mass_kg, true_slope_rad):  # type: ignore[override]
         cols = [np.asarray(measured[k], dtype=float).tolist() for k in SENSOR_KEYS]
@@ -167,6 +170,8 @@ class EstimatorObserver(Observer):
         for torque, speed, accel, motor, gyro, acc_n in zip(*cols):
             e = update(torque, speed, accel, dt_s, motor, gyro, acc_n)
         self._last = e
+        if e.extras:
+            self.extras = {k: float(v) for k, v in e.extras.items() if math.isfinite(v)}
         return _finite_or(e.mass_kg, self.vehicle.empty_mass_kg + 0.5 * self.vehicle.rated_load_kg), _finite_or(
             e.slope_rad, 0.0
         ), _finite_or(abs(e.mass_std_kg), self.vehicle.rated_load_kg), _finite_or(abs(e.slope_std_rad), 1.0)
@@ -270,8 +275,12 @@ class ObservationBuilder:
         mass_std_kg: float,
         slope_std_rad: float,
         est_speed_limit_mps: float,
+        slip_ratio: float | None = None,
     ) -> np.ndarray:
-        """The observation vector (float32, clipped to the bounds; NaN would become 0)."""
+        """The observation vector (float32, clipped to the bounds; NaN would become 0).
+
+        ``slip_ratio`` replaces entry 11 (the sensors' apparent slip velocity) by an estimated slip ratio.
+        """
         vh = self.vehicle
         to_go = self.station_m - self.odometry_m
         raw = (
@@ -286,7 +295,7 @@ class ObservationBuilder:
             (self.speed_mps - est_speed_limit_mps) / self.v_max,
             to_go / self.track_length_m,
             to_go / NEAR_SCALE_M,
-            self.slip_mps / SLIP_SCALE_MPS,
+            self.slip_mps / SLIP_SCALE_MPS if slip_ratio is None else slip_ratio,
         )
         # Python-level clipping: on 12 numbers it is several times faster than three numpy calls.
         out = [min(max(x, lo), hi) if x == x else 0.0 for x, lo, hi in zip(raw, _LOW_LIST, _HIGH_LIST)]

@@ -292,7 +292,8 @@ class UUOMTrackEnv(gym.Env):
 
     def _observation(self) -> np.ndarray:
         m, th, ms, ts = self._estimate
-        return self.obs_builder.build(self.last_command, m, th, ms, ts, self._est_limit)
+        slip = self.observer.extras.get("slip_ratio") if self.config["slip_observation"] == "estimator" else None
+        return self.obs_builder.build(self.last_command, m, th, ms, ts, self._est_limit, slip)
 
     def _info(self, cost, costs, violations, rewards, success, termination) -> dict[str, Any]:
         m, th, ms, ts = self._estimate
@@ -315,6 +316,7 @@ class UUOMTrackEnv(gym.Env):
             "true_slope_rad": self.true_slope_rad,
             "est_slope_rad": th,
             "est_slope_std_rad": ts,
+            "est_extras": dict(self.observer.extras),
             "true_speed_limit_mps": self.true_limit_mps,
             "est_speed_limit_mps": self._est_limit,
             "est_speed_limit_2sigma_mps": self._conservative_limit(),

@@ -22,7 +22,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.controllers import ControlInput, control_input_from_obs, force_to_command
+from agents.controllers import ControlInput, GradeCrossCheck, control_input_from_obs, force_to_command
 from uuom_gym.limits import brake_deceleration_mps2, speed_limit_mps
 from uuom_gym.vehicle import G_MPS2, VehicleParams
 
@@ -53,6 +53,15 @@ class ShieldParams:
     memory_s : float
         The pessimistic mass / slope are the worst of the last ``memory_s`` seconds of estimates, so a confident
         jump of the estimate to a lighter load or a gentler grade is believed only after it has lasted.
+    cross_check_margin_rad : float
+        The model-free grade ``asin((f - dv/dt) / g)`` (:class:`agents.controllers.GradeCrossCheck`, from the
+        measured specific force and speed) minus this bounds the planning slope from below; a disagreement larger
+        than this with the estimate switches the shield's force model to the model-free grade. Measured: the
+        estimators' slope can be confidently wrong by 5-12 degrees on down-grades while braking.
+    mass_std_floor_frac : float
+        The mass standard deviation allowed for is at least this fraction of the estimate (measured: on heavy
+        trains DFFRLS-AEKF's mass ends 5-8 % low while claiming about 1 %). 0.02 against 0.03 on 50 held-out
+        tracks: shielded PPO 1.13x against 1.16x the oracle's trip time, cost rate 7.5e-05 against 1.0e-06.
     """
 
     k_sigma: float = 2.0
@@ -63,6 +72,8 @@ class ShieldParams:
     speed_margin_mps: float = 0.035
     warmup_s: float = 8.0
     memory_s: float = 15.0
+    cross_check_margin_rad: float = math.radians(1.0)
+    mass_std_floor_frac: float = 0.02
 
     def __post_init__(self) -> None:
         if not (self.k_sigma >= 0 and 0 <= self.speed_margin < 1 and 0 < self.brake_fraction <= 1):
@@ -98,6 +109,7 @@ class SafetyShield:
         self._last: tuple[float, float] | None = None
         self._t_s = 0.0
         self._history: list[tuple[float, float, float]] = []
+        self._grade_check = GradeCrossCheck()
 
     def pessimistic(self, x: ControlInput, remember: bool = False) -> tuple[float, float]:
         """Mass (heavy side) and slope (downhill side) the shield plans with.
@@ -106,8 +118,14 @@ class SafetyShield:
         shield's clock; without it the current memory is only read.
         """
         p, v = self.params, self.vehicle
-        mass = min(max(x.est_mass_kg + p.k_sigma * x.est_mass_std_kg, v.empty_mass_kg), v.max_mass_kg)
+        mass_std = max(x.est_mass_std_kg, p.mass_std_floor_frac * x.est_mass_kg)
+        mass = min(max(x.est_mass_kg + p.k_sigma * mass_std, v.empty_mass_kg), v.max_mass_kg)
         slope = x.est_slope_rad - p.k_sigma * x.est_slope_std_rad - p.slope_margin_rad
+        if remember:
+            self._grade_check.update(x)
+        mf = self._grade_check.slope_rad
+        if mf is not None:
+            slope = min(slope, mf - p.cross_check_margin_rad)
         if remember:
             self._t_s += x.dt_s
             self._history.append((self._t_s, mass, slope))
@@ -146,7 +164,11 @@ class SafetyShield:
         mass, _ = self.pessimistic(x, remember=True)
         m_hat = min(max(x.est_mass_kg, v.empty_mass_kg), v.max_mass_kg)
         inertia = m_hat + v.rotating_mass_kg
-        resist_hat = m_hat * G_MPS2 * (math.sin(x.est_slope_rad) + v.running_resistance * math.cos(x.est_slope_rad))
+        th = x.est_slope_rad
+        mf = self._grade_check.slope_rad
+        if mf is not None and abs(mf - th) > p.cross_check_margin_rad:
+            th = mf  # the estimate is confidently wrong; the model-free grade needs no force model
+        resist_hat = m_hat * G_MPS2 * (math.sin(th) + v.running_resistance * math.cos(th))
         # Disturbance observer: the force the model misses (slope bias, the 18 m train spanning two grades, mu),
         # from the measured speed change over the last step, low-passed against encoder noise.
         if self._last is not None and abs(x.speed_mps) > 0.05 and abs(self._last[1]) > 0.05:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import gymnasium as gym
@@ -10,7 +11,9 @@ import pytest
 
 import uuom_gym  # noqa: F401 - registers the env
 from agents.controllers import (
+    ControlInput,
     ControlInputError,
+    GradeCrossCheck,
     OracleController,
     RuleBasedController,
     control_input_from_info,
@@ -22,6 +25,7 @@ from agents.speed_profile import ProfileError, min_time_profile
 from uuom_gym.limits import speed_limit_mps
 from uuom_gym.sim.track import random_track
 from uuom_gym.vehicle import DEFAULT_VEHICLE as V
+from uuom_gym.vehicle import G_MPS2
 
 SHORT = {"track_length_m": (60.0, 120.0)}
 
@@ -131,3 +135,53 @@ def test_bad_inputs_are_named():
     obs[0] = math.nan
     with pytest.raises(ControlInputError):
         control_input_from_obs(obs, V, 100.0, 0.1)
+
+
+def _steady_downhill(true_deg: float, est_deg: float, speed: float, n: int = 6):
+    """Inputs of a train held at constant speed on a ``true_deg`` grade whose estimate says ``est_deg`` (+- 0.05)."""
+    f = G_MPS2 * math.sin(math.radians(true_deg))  # constant speed: the specific force is all grade
+    return [
+        ControlInput(0.0, speed, 100.0, 18_500.0, 100.0, math.radians(est_deg), math.radians(0.05), 0.1, f)
+        for _ in range(n)
+    ]
+
+
+def test_grade_cross_check_recovers_the_grade_and_checks_its_input():
+    chk = GradeCrossCheck()
+    assert chk.update(ControlInput(0.0, 1.0, 100.0, 2e4, 0.0, 0.0, 0.0, 0.1)) is None  # no accelerometer
+    for x in _steady_downhill(-14.0, -1.4, 1.9):
+        out = chk.update(x)
+    assert math.degrees(out) == pytest.approx(-14.0, abs=0.05)
+    # accelerating at 0.5 m/s^2 on the level: f = 0.5, dv/dt = 0.5 -> level
+    chk.reset()
+    for k in range(5):
+        out = chk.update(ControlInput(0.0, 0.5 + 0.05 * k, 100.0, 2e4, 0.0, 0.0, 0.0, 0.1, 0.5))
+    assert math.degrees(out) == pytest.approx(0.0, abs=0.05)
+    with pytest.raises(ValueError, match="smoothing"):
+        GradeCrossCheck(smoothing=0.0)
+
+
+def test_rule_based_brakes_hard_when_the_slope_estimate_is_confidently_wrong():
+    # Seed 100000 with dffrls-aekf (measured): true grade -14 deg, estimate -1.4 deg +- 0.05 deg, empty train at
+    # 1.95 m/s against a true limit of 1.81 m/s. Trusting the estimate the controller asked for -0.27 and ran away.
+    true_lim = speed_limit_mps(V, 18_500.0, math.radians(-14.0))
+    ctrl = RuleBasedController(V, warmup_s=0.0)
+    ctrl.reset()
+    for x in _steady_downhill(-14.0, -1.4, 1.95):
+        cmd = ctrl.command(x)
+    assert ctrl.speed_cap(x) < true_lim
+    hold = force_to_command(V, -18_500.0 * G_MPS2 * math.sin(math.radians(14.0)), 1.95)
+    assert cmd < hold - 0.1  # more than the grade force: it slows down
+    blind = RuleBasedController(V, warmup_s=0.0)
+    blind.reset()
+    for x in _steady_downhill(-14.0, -1.4, 1.95):
+        blind_cmd = blind.command(dataclasses.replace(x, specific_force_mps2=None))
+    assert blind_cmd > cmd  # without the accelerometer it cannot know
+
+
+def test_rule_based_no_longer_trips_on_the_measured_runaway_episode():
+    # Held-out seed 100000, dffrls-aekf: the rule-based controller tripped at 64 s on a -14 deg down-grade.
+    env = gym.make("UUOM-Track-v0", observer="dffrls-aekf")
+    summary, _ = _drive(env, RuleBasedController(env.unwrapped.vehicle), 100000)
+    assert not summary.overspeed_trip
+    assert summary.success

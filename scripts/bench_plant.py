@@ -23,11 +23,6 @@ from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2
 V = DEFAULT_VEHICLE
 
 
-def _cm_speed(plant: MonorailPlant) -> float:
-    bodies = plant.space.bodies
-    return sum(b.mass * b.velocity.x for b in bodies) / sum(b.mass for b in bodies)
-
-
 def _straight(deg: float):
     return profile_from_knots([(0.0, deg), (400.0, deg)])
 
@@ -40,9 +35,9 @@ def physics_checks() -> None:
         plant = MonorailPlant(V, _straight(0.0), PlantConfig(load_kg=load, running_resistance=mu), start_s_m=20.0)
         u = (0.05 * (mass + V.rotating_mass_kg) + mu * mass * G_MPS2) / V.max_traction_n
         plant.advance(u, 400)
-        v0, t0 = _cm_speed(plant), plant.t_s
+        v0, t0 = plant.centre_of_mass_speed_mps(), plant.t_s
         log = plant.advance(u, 2000)
-        a = (_cm_speed(plant) - v0) / (plant.t_s - t0)
+        a = (plant.centre_of_mass_speed_mps() - v0) / (plant.t_s - t0)
         f = float(np.mean(log.traction_force_n))
         model = (f - mu * mass * G_MPS2) / (mass + V.rotating_mass_kg)
         print(f"level, load {load / 1000:4.0f} t, F {f / 1000:5.2f} kN: a = {a:.5f} m/s^2, "

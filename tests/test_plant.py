@@ -19,8 +19,7 @@ def straight(grade_deg: float, length_m: float = 400.0):
 
 def cm_speed(plant: MonorailPlant) -> float:
     """Speed of the centre of mass of all bodies along x (the momentum, free of load-sway exchange)."""
-    bodies = plant.space.bodies
-    return sum(b.mass * b.velocity.x for b in bodies) / sum(b.mass for b in bodies)
+    return plant.centre_of_mass_speed_mps()
 
 
 @pytest.mark.parametrize("load_kg", [0.0, 10_000.0, 20_000.0])

@@ -814,6 +814,11 @@ class MonorailPlant:
         for sp in (self.coupler, self.sway_damper):
             e["damper_j"] += sp.damping * self._spring_rate(sp) ** 2 * dt
 
+    def centre_of_mass_speed_mps(self) -> float:
+        """Horizontal speed of the centre of mass of all bodies (the momentum: free of the load-sway exchange)."""
+        bodies = self.space.bodies
+        return sum(b.mass * b.velocity.x for b in bodies) / sum(b.mass for b in bodies)
+
     def mechanical_energy_j(self) -> float:
         """Kinetic (translation and rotation of every body) + gravitational + coupler-spring energy (J)."""
         total = 0.0

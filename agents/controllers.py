@@ -30,8 +30,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from agents.speed_profile import SpeedProfile, effective_slope_rad, min_time_profile
-from uuom_gym.limits import brake_deceleration_mps2, speed_limit_mps
-from uuom_gym.vehicle import G_MPS2, VehicleParams
+from uuom_core.limits import brake_deceleration_mps2, speed_limit_mps
+from uuom_core.vehicle import G_MPS2, VehicleParams
 
 
 class ControlInputError(ValueError):

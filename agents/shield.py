@@ -23,8 +23,8 @@ import gymnasium as gym
 import numpy as np
 
 from agents.controllers import ControlInput, GradeCrossCheck, control_input_from_obs, force_to_command
-from uuom_gym.limits import brake_deceleration_mps2, speed_limit_mps
-from uuom_gym.vehicle import G_MPS2, VehicleParams
+from uuom_core.limits import brake_deceleration_mps2, speed_limit_mps
+from uuom_core.vehicle import G_MPS2, VehicleParams
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@ The fastest trip the safety rules allow is found the classical way (time-optimal
 accelerates with all the traction the drive can transmit (motor force and power limits, adhesion), a backward
 pass brakes with the guaranteed service brake so that every later speed cap and the stop at the far station are
 reached, and the profile is the pointwise minimum of both and of the speed limit ``v_lim(M, theta(s))`` of
-:mod:`uuom_gym.limits`.
+:mod:`uuom_core.limits`.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from uuom_gym.limits import speed_limit_mps
-from uuom_gym.vehicle import G_MPS2, VehicleParams
+from uuom_core.limits import speed_limit_mps
+from uuom_core.vehicle import G_MPS2, VehicleParams
 
 
 class ProfileError(ValueError):
@@ -166,7 +166,7 @@ def min_time_profile(
     running_resistance, adhesion : float, optional
         The plant's true values (default: the vehicle's nominal running resistance and dry adhesion).
     limit_fn : callable, optional
-        ``limit_fn(mass_kg, slope_rad) -> v_lim``; default :func:`uuom_gym.limits.speed_limit_mps` for the
+        ``limit_fn(mass_kg, slope_rad) -> v_lim``; default :func:`uuom_core.limits.speed_limit_mps` for the
         vehicle, i.e. the environment's rule 1.
 
     Returns

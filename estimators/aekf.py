@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 
-from uuom_gym.vehicle import VehicleParams
+from uuom_core.vehicle import VehicleParams
 
 from .ekf import SlopeEKF
 from .filters import repair_pd_2x2

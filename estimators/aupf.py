@@ -61,7 +61,7 @@ from typing import Any
 
 import numpy as np
 
-from uuom_gym.vehicle import VehicleParams
+from uuom_core.vehicle import VehicleParams
 
 from .base import Estimate, Estimator
 from .filters import check_dt_non_negative, check_number_options, sage_husa_weight

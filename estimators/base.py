@@ -3,7 +3,7 @@
 One :meth:`Estimator.update` per sensor sample (200 Hz in the environment, whatever the trace has offline) returns
 an :class:`Estimate`. Missing sensor values are passed as ``NaN``; an estimator must then predict without
 correcting, never propagate the NaN. :meth:`Estimator.run` applies the same per-sample loop to a whole
-:class:`~uuom_gym.trace.Trace`, so offline results are exactly what the environment would see.
+:class:`~uuom_core.trace.Trace`, so offline results are exactly what the environment would see.
 
 Accelerometer convention (spec §4): ``accel_mps2`` is the *specific force* along the track,
 ``f = dv/dt + g sin(slope)``, as a body-fixed accelerometer measures it. Each estimator says in its docstring how
@@ -19,8 +19,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from uuom_gym.trace import Trace
-from uuom_gym.vehicle import DEFAULT_VEHICLE, VehicleParams
+from uuom_core.trace import Trace
+from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
 
 @dataclass(frozen=True, slots=True)

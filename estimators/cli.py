@@ -23,8 +23,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from uuom_gym.trace import Trace, TraceFormatError, read_trace_csv, write_csv_atomic
-from uuom_gym.vehicle import DEFAULT_VEHICLE, VehicleFileError, VehicleParams
+from uuom_core.trace import Trace, TraceFormatError, read_trace_csv, write_csv_atomic
+from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleFileError, VehicleParams
 
 from .base import EstimateSeries
 from .registry import UnknownEstimatorError, available, get_class

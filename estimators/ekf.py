@@ -24,7 +24,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from uuom_gym.vehicle import G_MPS2, VehicleParams
+from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
 from .filters import SpikeGate, check_dt, joseph_update, repair_pd

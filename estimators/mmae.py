@@ -50,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from uuom_gym.vehicle import G_MPS2, VehicleParams
+from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
 from .filters import check_dt_non_negative, check_number_options

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from uuom_gym.trace import Trace
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
+from uuom_core.trace import Trace
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
 
 from .filters import LowPass2, dynamic_forgetting
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from uuom_gym.vehicle import VehicleParams
+from uuom_core.vehicle import VehicleParams
 
 from .base import Estimator
 

@@ -47,7 +47,7 @@ from __future__ import annotations
 import math
 from typing import Any, ClassVar
 
-from uuom_gym.vehicle import G_MPS2, VehicleParams
+from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
 from .filters import LowPass2, SpikeGate, check_dt

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from typing import Any, ClassVar
 
-from uuom_gym.vehicle import VehicleParams
+from uuom_core.vehicle import VehicleParams
 
 from .aekf import SageHusaAEKF
 from .base import Estimate, Estimator

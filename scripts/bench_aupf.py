@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 from estimators.aupf import AUPFEstimator
-from uuom_gym.vehicle import DEFAULT_VEHICLE
+from uuom_core.vehicle import DEFAULT_VEHICLE
 
 
 def input_stream(n: int, seed: int = 0) -> tuple[list[float], list[float], list[float]]:

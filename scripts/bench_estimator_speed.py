@@ -26,15 +26,15 @@ import numpy as np
 
 import estimators
 from estimators.ekf import SlopeEKF
-from uuom_gym.trace import Trace
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2
+from uuom_core.trace import Trace
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
 
 
 def load_trace(duration_s: float = 100.0) -> Trace:
     try:
         from uuom_gym.sim.recording import simulate_run
     except ImportError:
-        from estimators.synthetic import synthetic_trace
+        from uuom_core.synthetic import synthetic_trace
         return synthetic_trace("section1", seed=0, duration_s=duration_s)
     return simulate_run("roadtest", seed=0, duration_s=duration_s)
 

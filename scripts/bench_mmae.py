@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 from estimators.mmae import MMAEEstimator
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
 
 
 def input_stream(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

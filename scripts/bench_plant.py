@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 from uuom_gym.sim import MonorailPlant, PlantConfig, profile_from_knots, scenario_track
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
 
 V = DEFAULT_VEHICLE
 

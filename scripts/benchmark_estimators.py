@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 import estimators
-from uuom_gym.trace import Trace
+from uuom_core.trace import Trace
 
 SCENARIOS = ("section1", "section2", "roadtest")
 

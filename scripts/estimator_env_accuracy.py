@@ -133,7 +133,7 @@ def _errors(t_s, mass_true, mass_est, slope_true, slope_est, settle_s):
 
 def _replay(ep: dict, name: str) -> tuple[float, float]:
     import estimators
-    from uuom_gym.vehicle import DEFAULT_VEHICLE
+    from uuom_core.vehicle import DEFAULT_VEHICLE
 
     s = ep["samples"]
     n = len(s["torque_nm"])
@@ -164,7 +164,7 @@ def _figure(ep: dict, names: list[str], path: str) -> None:
     import matplotlib.pyplot as plt
 
     import estimators
-    from uuom_gym.vehicle import DEFAULT_VEHICLE
+    from uuom_core.vehicle import DEFAULT_VEHICLE
 
     s = ep["samples"]
     dt = ep["dt_s"]

@@ -17,7 +17,7 @@ import numpy as np
 
 from estimators.aupf import AUPFEstimator
 from estimators.mmae import MMAEEstimator
-from estimators.plant_scenarios import station_trace
+from uuom_gym.sim.station import station_trace
 from uuom_gym.sim.plant import PlantConfig
 from uuom_gym.sim.recording import simulate_run
 

@@ -17,8 +17,8 @@ from dataclasses import replace
 import numpy as np
 
 from uuom_gym.sim import SCENARIO_NAMES, FaultConfig, PlantConfig, SensorConfig, random_track, simulate_run
-from uuom_gym.trace import write_trace_csv
-from uuom_gym.vehicle import DEFAULT_VEHICLE, VehicleFileError, VehicleParams
+from uuom_core.trace import write_trace_csv
+from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleFileError, VehicleParams
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -25,7 +25,7 @@ import numpy as np
 import estimators
 from estimators.imu.motion_state import (STATE_NAMES, MotionStateRecognizer, label_motion_states,
                                          per_state_accuracy)
-from estimators.imu.runs import make_runs
+from uuom_gym.sim.imu_runs import make_runs
 
 
 def _pitch(tr) -> np.ndarray:

@@ -24,7 +24,7 @@ import numpy as np
 import estimators
 from estimators.imu.estimator import IMU_UKF_DEFAULTS
 from estimators.imu.hho import METHODS, tune
-from estimators.imu.runs import make_runs
+from uuom_gym.sim.imu_runs import make_runs
 
 PARAMS = ("gyro_noise_radps", "gyro_bias_walk_radps", "accel_noise_mps2", "accel_normal_noise_mps2",
           "jerk_std_mps3")
@@ -106,13 +106,13 @@ def tuning_sets(args):
     accelerometer); held out are the road test and random stop-and-go runs."""
     source = args.source
     if source == "auto":
-        from estimators.imu.runs import plant_available
+        from uuom_gym.sim.imu_runs import plant_available
 
         source = "sim" if plant_available() else "synthetic"
     if source == "synthetic":
         runs, used = make_runs(args.n_train + args.n_test, 500, args.duration_s, "synthetic")
         return runs[:args.n_train], runs[args.n_train:], used
-    from estimators.imu.runs import plant_run_with_pitch
+    from uuom_gym.sim.imu_runs import plant_run_with_pitch
 
     sections = ["section2", "section1"][:max(args.n_train, 1)]
     train = [plant_run_with_pitch(name, seed=500 + k) for k, name in enumerate(sections)]

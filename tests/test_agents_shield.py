@@ -13,9 +13,9 @@ import uuom_gym  # noqa: F401
 from agents.controllers import ControlInput, force_to_command
 from agents.metrics import EpisodeAccumulator
 from agents.shield import SafetyShield, ShieldParams, ShieldWrapper
-from uuom_gym.limits import speed_limit_mps
-from uuom_gym.vehicle import DEFAULT_VEHICLE as V
-from uuom_gym.vehicle import G_MPS2
+from uuom_core.limits import speed_limit_mps
+from uuom_core.vehicle import DEFAULT_VEHICLE as V
+from uuom_core.vehicle import G_MPS2
 
 
 def _x(speed, mass=26_000.0, slope_deg=0.0, mass_std=0.0, slope_std_deg=0.0, to_go=100.0):

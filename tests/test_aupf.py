@@ -15,8 +15,8 @@ import pytest
 
 import estimators
 from estimators.aupf import AUPFConfigError, AUPFEstimator
-from uuom_gym.trace import Trace
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2
+from uuom_core.trace import Trace
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
 
 
 def _slip_signal(

@@ -12,8 +12,8 @@ import pytest
 
 import estimators
 from estimators.cli import EXIT_BAD_INPUT, main, summarize
-from estimators.synthetic import synthetic_trace
-from uuom_gym.trace import read_trace_csv, write_trace_csv
+from uuom_core.synthetic import synthetic_trace
+from uuom_core.trace import read_trace_csv, write_trace_csv
 
 HEADER = "t_s,torque_nm,speed_mps,accel_mps2,mass_kg,slope_deg"
 

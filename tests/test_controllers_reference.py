@@ -22,10 +22,10 @@ from agents.controllers import (
 )
 from agents.metrics import EpisodeAccumulator
 from agents.speed_profile import ProfileError, min_time_profile
-from uuom_gym.limits import speed_limit_mps
+from uuom_core.limits import speed_limit_mps
 from uuom_gym.sim.track import random_track
-from uuom_gym.vehicle import DEFAULT_VEHICLE as V
-from uuom_gym.vehicle import G_MPS2
+from uuom_core.vehicle import DEFAULT_VEHICLE as V
+from uuom_core.vehicle import G_MPS2
 
 SHORT = {"track_length_m": (60.0, 120.0)}
 

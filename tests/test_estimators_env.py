@@ -14,7 +14,7 @@ import pytest
 
 import estimators
 from estimators.rls import RegressionFrontEnd
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
 
 
 def test_front_end_pendulum_settles_to_the_acceleration() -> None:

@@ -1,6 +1,6 @@
 """Tests of the paper-000 estimators (rls, ffrls, dffrls, ekf, rls-ekf, dffrls-aekf) and sf-kf.
 
-Convergence is checked on the point-mass UNIT-TEST SIGNAL of :mod:`estimators.synthetic` (not the plant); the
+Convergence is checked on the point-mass UNIT-TEST SIGNAL of :mod:`uuom_core.synthetic` (not the plant); the
 accuracy on the plant is measured by scripts/benchmark_estimators.py.
 """
 
@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import estimators
-from estimators.synthetic import synthetic_trace
-from uuom_gym.trace import Trace
-from uuom_gym.vehicle import DEFAULT_VEHICLE
+from uuom_core.synthetic import synthetic_trace
+from uuom_core.trace import Trace
+from uuom_core.vehicle import DEFAULT_VEHICLE
 
 MINE = ["rls", "ffrls", "dffrls", "ekf", "rls-ekf", "dffrls-aekf", "sf-kf"]
 

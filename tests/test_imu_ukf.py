@@ -7,7 +7,7 @@ import pytest
 
 import estimators
 from estimators.imu.attitude_ukf import PitchQuaternionUKF, UKFConfigError
-from estimators.imu.synthetic import synthetic_imu_run
+from uuom_core.imu_synthetic import synthetic_imu_run
 
 G = 9.81
 
@@ -74,7 +74,7 @@ def test_without_speed_compensation_the_error_is_larger(run):
     est.run(run)
     cols = dict(run.columns)
     cols["speed_mps"] = np.zeros(len(run))  # a speed sensor that says 'standing still'
-    from uuom_gym.trace import Trace
+    from uuom_core.trace import Trace
 
     s_bad = est.run(Trace(cols))
     s_good = est.run(run)
@@ -91,7 +91,7 @@ def test_nan_inputs_predict_only_and_never_nan(run):
     cols["accel_normal_mps2"][4000:4400] = np.nan
     cols["gyro_radps"][6000:6100] = np.nan
     cols["speed_mps"][7000:7200] = np.nan
-    from uuom_gym.trace import Trace
+    from uuom_core.trace import Trace
 
     s = est.run(Trace(cols))
     assert np.all(np.isfinite(s.slope_rad)) and np.all(np.isfinite(s.slope_std_rad))

@@ -1,10 +1,10 @@
-"""The safe operating envelope (uuom_gym.limits) against hand-computed physics."""
+"""The safe operating envelope (uuom_core.limits) against hand-computed physics."""
 
 import math
 
 import pytest
 
-from uuom_gym.limits import (
+from uuom_core.limits import (
     brake_deceleration_mps2,
     load_speed_limit_mps,
     max_climbable_grade_rad,
@@ -12,8 +12,8 @@ from uuom_gym.limits import (
     speed_limit_mps,
     stopping_speed_limit_mps,
 )
-from uuom_gym.vehicle import DEFAULT_VEHICLE as V
-from uuom_gym.vehicle import G_MPS2
+from uuom_core.vehicle import DEFAULT_VEHICLE as V
+from uuom_core.vehicle import G_MPS2
 
 
 def test_load_limit_interpolates_table3():

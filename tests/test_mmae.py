@@ -18,8 +18,8 @@ import pytest
 
 import estimators
 from estimators.mmae import MMAEConfigError, MMAEEstimator
-from uuom_gym.trace import Trace
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2
+from uuom_core.trace import Trace
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
 
 POINT_MASS = {"rear_offset_m": 0.0}
 
@@ -217,7 +217,7 @@ def test_converges_on_the_plant(name: str, load_kg: float) -> None:
 def _station_trace(load1_kg: float, load2_kg: float, seed: int = 5) -> Trace:
     """Two plant runs joined at a station stop: the train stops on the level, is loaded, drives on up the grade."""
     pytest.importorskip("uuom_gym.sim.recording")
-    from estimators.plant_scenarios import station_trace
+    from uuom_gym.sim.station import station_trace
 
     return station_trace(load1_kg, load2_kg, seed)
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from estimators.mu_identification import MuIdentificationError, identify_running_resistance
-from estimators.synthetic import synthetic_trace
-from uuom_gym.trace import Trace
+from uuom_core.synthetic import synthetic_trace
+from uuom_core.trace import Trace
 
 
 @pytest.mark.parametrize("mu", [0.01, 0.02, 0.04])

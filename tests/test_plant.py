@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from uuom_gym.sim import MonorailPlant, PlantConfig, PlantConfigError, profile_from_knots, scenario_track
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
 
 V = DEFAULT_VEHICLE
 

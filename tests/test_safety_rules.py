@@ -9,8 +9,8 @@ import pytest
 
 from uuom_gym.envs.config import RULES, make_config
 from uuom_gym.envs.safety import SafetyMonitor, SafetyParams
-from uuom_gym.limits import max_climbable_grade_rad, speed_limit_mps, speed_limit_mps_array
-from uuom_gym.vehicle import DEFAULT_VEHICLE as V
+from uuom_core.limits import max_climbable_grade_rad, speed_limit_mps, speed_limit_mps_array
+from uuom_core.vehicle import DEFAULT_VEHICLE as V
 
 DT = 0.005
 N = 20

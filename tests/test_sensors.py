@@ -21,9 +21,9 @@ from uuom_gym.sim import (
     random_track,
     simulate_run,
 )
-from uuom_gym.trace import read_trace_csv, write_trace_csv
-from uuom_gym.vehicle import DEFAULT_VEHICLE as V
-from uuom_gym.vehicle import G_MPS2
+from uuom_core.trace import read_trace_csv, write_trace_csv
+from uuom_core.vehicle import DEFAULT_VEHICLE as V
+from uuom_core.vehicle import G_MPS2
 
 
 @pytest.fixture(scope="module")

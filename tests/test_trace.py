@@ -8,7 +8,7 @@ import os
 import numpy as np
 import pytest
 
-from uuom_gym.trace import Trace, TraceFormatError, read_trace_csv, write_csv_atomic, write_trace_csv
+from uuom_core.trace import Trace, TraceFormatError, read_trace_csv, write_csv_atomic, write_trace_csv
 
 
 def make_trace(n: int = 50) -> Trace:

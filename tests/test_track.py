@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from uuom_gym.limits import max_climbable_grade_rad
+from uuom_core.limits import max_climbable_grade_rad
 from uuom_gym.sim.track import (
     MIN_CURVE_RADIUS_M,
     TrackError,
@@ -16,7 +16,7 @@ from uuom_gym.sim.track import (
     random_track,
     scenario_track,
 )
-from uuom_gym.vehicle import DEFAULT_VEHICLE as V
+from uuom_core.vehicle import DEFAULT_VEHICLE as V
 
 
 @pytest.mark.parametrize("seed", range(12))

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleFileError, VehicleParams
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleFileError, VehicleParams
 
 
 def test_defaults_are_the_spec_vehicle():

@@ -4,7 +4,7 @@ Importing the package registers the environments with Gymnasium (``gym.make("UUO
 ``"uuom_gym:UUOM-Track-v0"`` works without a prior import.
 """
 
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
 
 __version__ = "0.1.0"
 

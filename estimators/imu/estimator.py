@@ -25,7 +25,7 @@ import math
 from typing import Any
 
 from estimators.base import Estimate, Estimator
-from uuom_gym.vehicle import G_MPS2, VehicleParams
+from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .attitude_ukf import PitchQuaternionUKF, UKFConfigError
 

@@ -30,8 +30,8 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from uuom_gym.trace import Trace
-from uuom_gym.vehicle import G_MPS2
+from uuom_core.trace import Trace
+from uuom_core.vehicle import G_MPS2
 
 from ..filters import hold_last_valid
 from .denoise import SlidingWaveletDenoiser

@@ -12,7 +12,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from uuom_gym.vehicle import VehicleParams
+from uuom_core.vehicle import VehicleParams
 
 TICK_FIELDS: tuple[str, ...] = (
     "position_m",

@@ -45,8 +45,8 @@ from typing import Any, Mapping
 import numpy as np
 from gymnasium import spaces
 
-from uuom_gym.limits import speed_limit_mps
-from uuom_gym.vehicle import VehicleParams
+from uuom_core.limits import speed_limit_mps
+from uuom_core.vehicle import VehicleParams
 
 POSITION_MARKER_SPACING_M = 25.0
 """Spacing of the track-side position markers that reset the odometry (m)."""

@@ -28,13 +28,13 @@ from typing import Mapping
 import numpy as np
 
 from uuom_gym.envs.config import RULES
-from uuom_gym.limits import (
+from uuom_core.limits import (
     load_speed_limit_mps,
     max_climbable_grade_rad,
     speed_limit_mps_array,
     stopping_speed_limit_mps,
 )
-from uuom_gym.vehicle import VehicleParams
+from uuom_core.vehicle import VehicleParams
 
 
 @dataclass(frozen=True)

@@ -24,8 +24,8 @@ from uuom_gym.envs.observation import (
 )
 from uuom_gym.envs.reward import reward_terms, traction_energy_j
 from uuom_gym.envs.safety import SafetyMonitor, SafetyParams
-from uuom_gym.limits import speed_limit_mps
-from uuom_gym.vehicle import DEFAULT_VEHICLE, VehicleParams
+from uuom_core.limits import speed_limit_mps
+from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
 
 class InvalidActionError(ValueError):

@@ -43,7 +43,7 @@ except (ImportError, AttributeError):  # pragma: no cover - other pymunk builds
     _ffi = _lib = None
 
 from uuom_gym.sim.track import TrackProfile
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
 
 
 class PlantConfigError(ValueError):

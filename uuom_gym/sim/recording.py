@@ -1,4 +1,4 @@
-"""Record a run: drive the plant with a speed-tracking driver and return a :class:`~uuom_gym.trace.Trace`.
+"""Record a run: drive the plant with a speed-tracking driver and return a :class:`~uuom_core.trace.Trace`.
 
 The driver is a PI speed controller with a running-resistance feed-forward computed from the *nominal* vehicle
 and the (known to the driver) load, run at ``control_hz``; like a human driver it does not know the grade, the
@@ -13,13 +13,13 @@ import math
 
 import numpy as np
 
-from uuom_gym.limits import load_speed_limit_mps
+from uuom_core.limits import load_speed_limit_mps
 from uuom_gym.sim.plant import MonorailPlant, PlantConfig, PlantLog
 from uuom_gym.sim.scenarios import Scenario, SpeedProfile, scenario
 from uuom_gym.sim.sensors import CHANNELS, FaultConfig, SensorConfig, SensorSuite
 from uuom_gym.sim.track import SCENARIO_NAMES, TrackProfile
-from uuom_gym.trace import Trace
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
+from uuom_core.trace import Trace
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
 
 
 class SpeedDriver:

@@ -1,6 +1,6 @@
 """Sensors at the physics rate: turn the plant's per-tick truth log into what the vehicle's sensors report.
 
-Channels (named as the trace columns, ``uuom_gym.trace``):
+Channels (named as the trace columns, ``uuom_core.trace``):
 
 ================== ======================================================= =============================
 column             source                                                  model
@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
-from uuom_gym.vehicle import DEFAULT_VEHICLE, VehicleParams
+from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
 CHANNELS: tuple[str, ...] = (
     "torque_nm",

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuom_gym.limits import max_climbable_grade_rad
-from uuom_gym.vehicle import DEFAULT_VEHICLE, VehicleParams
+from uuom_core.limits import max_climbable_grade_rad
+from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
 
 class TrackError(ValueError):
@@ -187,7 +187,7 @@ def random_track(
         Steepest grade drawn, in (0, 45).
     vehicle, load_kg, running_resistance, adhesion :
         When ``feasible`` and ``load_kg`` is given, up-grades are capped at ``feasibility_margin`` times
-        :func:`uuom_gym.limits.max_climbable_grade_rad` for that loaded vehicle, so the train can climb them.
+        :func:`uuom_core.limits.max_climbable_grade_rad` for that loaded vehicle, so the train can climb them.
     feasible : bool
         False leaves the grades uncapped (a track that may stall the train).
     """

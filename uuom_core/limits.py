@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from uuom_gym.vehicle import G_MPS2, VehicleParams
+from uuom_core.vehicle import G_MPS2, VehicleParams
 
 STOP_DISTANCE_M = 1.5
 """Distance within which the guaranteed (service) brake must stop the train from the speed limit."""

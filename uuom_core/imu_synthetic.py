@@ -21,8 +21,8 @@ import math
 
 import numpy as np
 
-from uuom_gym.trace import Trace
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
+from uuom_core.trace import Trace
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
 
 __all__ = ["synthetic_imu_run"]
 

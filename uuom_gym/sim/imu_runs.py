@@ -1,7 +1,7 @@
 """Simulated runs for training and tuning the IMU pipeline.
 
 ``source="sim"`` drives the project's pymunk plant (``uuom_gym.sim.recording.simulate_run``) over random tracks;
-``source="synthetic"`` uses the kinematic unit-test signal of :mod:`estimators.imu.synthetic`; ``"auto"`` takes
+``source="synthetic"`` uses the kinematic unit-test signal of :mod:`uuom_core.imu_synthetic`; ``"auto"`` takes
 the plant when it is importable and says which it used.
 """
 
@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from uuom_gym.trace import Trace
+from uuom_core.trace import Trace
 
-from .synthetic import synthetic_imu_run
+from uuom_core.imu_synthetic import synthetic_imu_run
 
 __all__ = ["make_runs", "plant_available", "plant_run_with_pitch"]
 
@@ -47,10 +47,10 @@ def _plant_run(seed: int) -> Trace:
     The driver's reference speed is a function of position, so a run holds one such cycle; the standstill comes
     at its end (10-25 s of it).
     """
-    from uuom_gym.limits import load_speed_limit_mps
+    from uuom_core.limits import load_speed_limit_mps
     from uuom_gym.sim.scenarios import SpeedProfile
     from uuom_gym.sim.track import random_track
-    from uuom_gym.vehicle import DEFAULT_VEHICLE
+    from uuom_core.vehicle import DEFAULT_VEHICLE
 
     rng = np.random.default_rng(seed)
     veh = DEFAULT_VEHICLE

@@ -13,8 +13,8 @@ from typing import Callable
 
 import numpy as np
 
-from uuom_gym.trace import Trace
-from uuom_gym.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
+from uuom_core.trace import Trace
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
 
 __all__ = ["synthetic_trace", "SLOPE_PROFILES"]
 

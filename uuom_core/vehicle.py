@@ -13,8 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-G_MPS2 = 9.81
-"""Gravitational acceleration used everywhere in the project (plant, estimators, safety rules)."""
+from uuom_core.units import G_MPS2
 
 
 class VehicleFileError(ValueError):

@@ -9,7 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from uuom_gym.trace import Trace
+from uuom_core.trace import Trace
 
 __all__ = ["station_trace"]
 

@@ -22,46 +22,83 @@ class VehicleFileError(ValueError):
 
 @dataclass(frozen=True)
 class VehicleParams:
-    """Physical parameters of an overhead monorail train.
+    """Physical parameters of an overhead monorail train, including the geometry of its multi-body model.
 
     The first seven fields are the keys of the ``[vehicle]`` table of the trace-format vehicle file
-    (``shared/spec/trace-format.md``); the others describe the plant and the safety envelope and may be given in
-    the same table.
+    (``shared/spec/trace-format.md``); the others describe the plant, its geometry and the safety envelope and may
+    be given in the same table. Every field must lie in the plausible range given in brackets (closed interval;
+    see :data:`PLAUSIBLE_RANGES`), wide enough for any real monorail and narrow enough to reject typos such as a
+    payload of 1e12 kg; a value outside it raises :class:`VehicleFileError` naming the field, the value and the
+    range.
 
     Attributes
     ----------
     empty_mass_kg : float
-        Train mass without load (assumed 16 t; not in the paper).
+        Train mass without load (assumed 16 t; not in the paper). [1 000, 200 000] kg.
     rated_load_kg : float
-        Rated payload (20 t, Table 3).
+        Rated payload (20 t, Table 3). [0, 100 000] kg.
     drive_wheel_radius_m : float
-        Nominal (unworn) friction drive wheel radius (340 mm diameter).
+        Nominal (unworn) friction drive wheel radius (340 mm diameter). [0.05, 1] m.
     carrying_wheel_radius_m : float
-        Carrying (walking) wheel radius (175 mm diameter).
+        Carrying (walking) wheel radius (175 mm diameter). [0.02, 0.5] m.
     wheel_inertia_kgm2 : float
-        Moment of inertia of one wheel set counted in the rotating-mass term.
+        Moment of inertia of one wheel set counted in the rotating-mass term. [0, 100] kg m^2.
     inertia_wheel_count : int
-        Number of wheel sets in the rotating-mass term: ``m_rot = count * J / r_carry**2``.
+        Number of wheel sets in the rotating-mass term: ``m_rot = count * J / r_carry**2``. [1, 64].
     running_resistance : float
-        Running-resistance coefficient mu (nominal; the env randomises the plant's true value).
+        Running-resistance coefficient mu (nominal; the env randomises the plant's true value). [0, 0.5].
     drive_unit_count : int
-        Number of friction drive units.
+        Number of friction drive units. [1, 64].
     max_traction_n : float
-        Maximum traction force of all drive units together (80 kN).
+        Maximum traction force of all drive units together (80 kN). [1 000, 1 000 000] N.
     motor_power_w : float
-        Total traction motor power (60 kW): above ``P / v`` the traction force falls off.
+        Total traction motor power (60 kW): above ``P / v`` the traction force falls off. [1 000, 5 000 000] W.
     service_brake_n, emergency_brake_n : float
-        Guaranteed (service) and emergency brake force of the brake cars (120 / 160 kN).
+        Guaranteed (service) and emergency brake force of the brake cars (120 / 160 kN); emergency >= service.
+        [1 000, 2 000 000] N each.
     clamp_force_n : float
-        Total normal force with which all drive wheels are clamped to the rail web.
+        Total normal force with which all drive wheels are clamped to the rail web. [1 000, 10 000 000] N.
     adhesion_dry, adhesion_wet : float
-        Drive wheel / rail adhesion coefficient on dry and on wet, greasy rail.
+        Drive wheel / rail adhesion coefficient on dry and on wet, greasy rail; wet <= dry. [0.01, 1] each.
     max_speed_empty_mps, max_speed_rated_mps : float
-        Load-dependent speed limit at empty and at rated load (2.0 / 0.5 m/s, Table 3).
+        Load-dependent speed limit at empty and at rated load (2.0 / 0.5 m/s, Table 3); rated <= empty.
+        [0.05, 10] m/s each.
     max_grade_deg : float
-        Steepest grade the vehicle is specified for (15 deg).
+        Steepest grade the vehicle is specified for (15 deg). [1, 40] deg.
     length_m : float
-        Train length (18.1 m).
+        Train length (18.1 m); at least the length of the modelled sections and their coupler gap. [2, 200] m.
+
+    The remaining fields are the geometry and mass distribution of the multi-body plant (``uuom_gym.sim``) and of
+    everything that needs to know where the train's weight rests (the oracle's speed plan). The train is two
+    sections hanging from carrying wheels: the *drive section* (front cab, drive units, brake car) in front, then
+    the coupler gap, then the *lifting-beam section* (lifting beams, rear cab) from which the load hangs on chains.
+    The reference point of the train (its position) is the drive section's centre.
+
+    carrying_wheel_mass_kg : float
+        Mass of one of the four carrying wheels (60 kg). [1, 2 000] kg.
+    drive_section_length_m, beam_section_length_m : float
+        Length of the drive section (10 m) and of the lifting-beam section (7 m). [1, 100] m each.
+    drive_wheel_base_m, beam_wheel_base_m : float
+        Distance between the two carrying wheels of each section (8 m, 6 m), centred on the section and at most
+        its length. [0.5, 100] m each.
+    drive_hang_m, beam_hang_m : float
+        Height of each section's pivot line (wheel axles) above its centre of mass (0.6 m, 0.5 m). [0, 5] m each.
+    section_height_m : float
+        Height of the sections as rigid boxes, for their moment of inertia (1 m). [0.1, 5] m.
+    coupler_gap_m : float
+        Gap between the sections' ends, bridged by the compliant coupler (0.5 m). [0.05, 10] m.
+    drive_section_mass_share : float
+        Share of the drive section in the empty mass without the wheels and the hook (0.56). [0.05, 0.95].
+    chain_length_m : float
+        Length of the load chains: the pendulum length of the swinging load (2 m). [0.1, 20] m.
+    chain_spacing_m : float
+        Distance along the beam between the two parallel chains (2 m), at most the beam's length. [0.1, 100] m.
+    load_block_length_m, load_block_height_m : float
+        Size of the hanging load block (2 m x 1 m), for its moment of inertia and chain attachment. [0.05, 50] m
+        and [0.05, 10] m.
+    hook_mass_kg : float
+        Hook block / spreader that always hangs on the chains (part of the empty mass, below 20 % of it; 300 kg).
+        [0, 10 000] kg.
     """
 
     empty_mass_kg: float = 16_000.0
@@ -83,6 +120,22 @@ class VehicleParams:
     max_speed_rated_mps: float = 0.5
     max_grade_deg: float = 15.0
     length_m: float = 18.1
+    # geometry and mass distribution of the multi-body model
+    carrying_wheel_mass_kg: float = 60.0
+    drive_section_length_m: float = 10.0
+    drive_wheel_base_m: float = 8.0
+    drive_hang_m: float = 0.6
+    beam_section_length_m: float = 7.0
+    beam_wheel_base_m: float = 6.0
+    beam_hang_m: float = 0.5
+    section_height_m: float = 1.0
+    coupler_gap_m: float = 0.5
+    drive_section_mass_share: float = 0.56
+    chain_length_m: float = 2.0
+    chain_spacing_m: float = 2.0
+    load_block_length_m: float = 2.0
+    load_block_height_m: float = 1.0
+    hook_mass_kg: float = 300.0
 
     def __post_init__(self) -> None:
         problems = _validate(self)

@@ -98,7 +98,7 @@ class VehicleParams:
         and [0.05, 10] m.
     hook_mass_kg : float
         Hook block / spreader that always hangs on the chains (part of the empty mass, below 20 % of it; 300 kg).
-        [0, 10 000] kg.
+        [1, 10 000] kg.
     """
 
     empty_mass_kg: float = 16_000.0
@@ -158,6 +158,32 @@ class VehicleParams:
         """Total mass at rated load."""
         return self.empty_mass_kg + self.rated_load_kg
 
+    # Derived geometry of the multi-body model ----------------------------------------------------------------
+    @property
+    def section_body_mass_kg(self) -> float:
+        """Mass of the two sections without the four carrying wheels and the hook: the part split by
+        ``drive_section_mass_share``."""
+        return self.empty_mass_kg - 4 * self.carrying_wheel_mass_kg - self.hook_mass_kg
+
+    @property
+    def beam_section_offset_m(self) -> float:
+        """Position of the lifting-beam section's centre relative to the reference point (negative: behind)."""
+        return -(self.drive_section_length_m / 2 + self.coupler_gap_m + self.beam_section_length_m / 2)
+
+    @property
+    def carrying_wheel_offsets_m(self) -> tuple[float, float, float, float]:
+        """Positions of the four carrying wheels along the track relative to the reference point: front and rear
+        wheel of the drive section, then front and rear wheel of the lifting-beam section."""
+        half_d, half_b, beam = self.drive_wheel_base_m / 2, self.beam_wheel_base_m / 2, self.beam_section_offset_m
+        return (half_d, -half_d, beam + half_b, beam - half_b)
+
+    @property
+    def drive_wheels_weight_share(self) -> float:
+        """Share of the empty train's weight that rests on the drive section's two wheels (its section and the
+        wheels themselves); the rest, with the hook and any load, rests on the lifting-beam section's wheels."""
+        drive_kg = self.drive_section_mass_share * self.section_body_mass_kg + 2 * self.carrying_wheel_mass_kg
+        return drive_kg / self.empty_mass_kg
+
     def with_changes(self, **changes: Any) -> "VehicleParams":
         """Return a copy with some fields replaced (validated like the constructor)."""
         unknown = sorted(set(changes) - {f.name for f in dataclasses.fields(self)})
@@ -203,53 +229,99 @@ class VehicleParams:
             raise VehicleFileError(f"{path}: {exc}") from None
 
 
-_POSITIVE = (
-    "empty_mass_kg",
-    "drive_wheel_radius_m",
-    "carrying_wheel_radius_m",
-    "inertia_wheel_count",
-    "drive_unit_count",
-    "max_traction_n",
-    "motor_power_w",
-    "service_brake_n",
-    "emergency_brake_n",
-    "clamp_force_n",
-    "adhesion_dry",
-    "adhesion_wet",
-    "max_speed_empty_mps",
-    "max_speed_rated_mps",
-    "max_grade_deg",
-    "length_m",
-)
-_NON_NEGATIVE = ("rated_load_kg", "wheel_inertia_kgm2", "running_resistance")
+PLAUSIBLE_RANGES: dict[str, tuple[float, float, str]] = {
+    # field: (lowest, highest, unit) - closed intervals, wide enough for any real overhead monorail and narrow
+    # enough to catch a typo (a payload of 1e12 kg, a wheel radius in mm instead of m, a percentage for a fraction)
+    "empty_mass_kg": (1_000.0, 200_000.0, "kg"),
+    "rated_load_kg": (0.0, 100_000.0, "kg"),
+    "drive_wheel_radius_m": (0.05, 1.0, "m"),
+    "carrying_wheel_radius_m": (0.02, 0.5, "m"),
+    "wheel_inertia_kgm2": (0.0, 100.0, "kg m^2"),
+    "inertia_wheel_count": (1, 64, ""),
+    "running_resistance": (0.0, 0.5, ""),
+    "drive_unit_count": (1, 64, ""),
+    "max_traction_n": (1_000.0, 1_000_000.0, "N"),
+    "motor_power_w": (1_000.0, 5_000_000.0, "W"),
+    "service_brake_n": (1_000.0, 2_000_000.0, "N"),
+    "emergency_brake_n": (1_000.0, 2_000_000.0, "N"),
+    "clamp_force_n": (1_000.0, 10_000_000.0, "N"),
+    "adhesion_dry": (0.01, 1.0, ""),
+    "adhesion_wet": (0.01, 1.0, ""),
+    "max_speed_empty_mps": (0.05, 10.0, "m/s"),
+    "max_speed_rated_mps": (0.05, 10.0, "m/s"),
+    "max_grade_deg": (1.0, 40.0, "deg"),
+    "length_m": (2.0, 200.0, "m"),
+    "carrying_wheel_mass_kg": (1.0, 2_000.0, "kg"),
+    "drive_section_length_m": (1.0, 100.0, "m"),
+    "drive_wheel_base_m": (0.5, 100.0, "m"),
+    "drive_hang_m": (0.0, 5.0, "m"),
+    "beam_section_length_m": (1.0, 100.0, "m"),
+    "beam_wheel_base_m": (0.5, 100.0, "m"),
+    "beam_hang_m": (0.0, 5.0, "m"),
+    "section_height_m": (0.1, 5.0, "m"),
+    "coupler_gap_m": (0.05, 10.0, "m"),
+    "drive_section_mass_share": (0.05, 0.95, ""),
+    "chain_length_m": (0.1, 20.0, "m"),
+    "chain_spacing_m": (0.1, 100.0, "m"),
+    "load_block_length_m": (0.05, 50.0, "m"),
+    "load_block_height_m": (0.05, 10.0, "m"),
+    "hook_mass_kg": (1.0, 10_000.0, "kg"),
+}
+"""Plausible closed range ``(low, high, unit)`` of every :class:`VehicleParams` field."""
+
+
+def _range_text(name: str) -> str:
+    lo, hi, unit = PLAUSIBLE_RANGES[name]
+    return f"[{lo:g}, {hi:g}]" + (f" {unit}" if unit else "")
 
 
 def _validate(p: VehicleParams) -> list[str]:
+    """Every field in its plausible range, then the relations between fields; one message per problem."""
     problems: list[str] = []
-    for name in _POSITIVE + _NON_NEGATIVE:
+    for name in PLAUSIBLE_RANGES:
         value = getattr(p, name)
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-            problems.append(f"{name} must be a finite number, got {value!r}")
-        elif name in _POSITIVE and value <= 0:
-            problems.append(f"{name} must be > 0, got {value!r}")
-        elif value < 0:
-            problems.append(f"{name} must be >= 0, got {value!r}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            problems.append(f"{name} must be a finite number in {_range_text(name)}, got {value!r}")
+            continue
+        lo, hi, _ = PLAUSIBLE_RANGES[name]
+        if not lo <= value <= hi:
+            problems.append(f"{name} = {value!r} is outside the plausible range {_range_text(name)}")
     if problems:
         return problems
-    if p.running_resistance >= 1.0:
-        problems.append(f"running_resistance must be < 1, got {p.running_resistance!r}")
-    if p.adhesion_wet > p.adhesion_dry:
-        problems.append("adhesion_wet must not exceed adhesion_dry")
-    if p.max_speed_rated_mps > p.max_speed_empty_mps:
-        problems.append("max_speed_rated_mps must not exceed max_speed_empty_mps")
-    if p.max_grade_deg >= 45.0:
-        problems.append(f"max_grade_deg must be < 45, got {p.max_grade_deg!r}")
-    if p.emergency_brake_n < p.service_brake_n:
-        problems.append("emergency_brake_n must be >= service_brake_n")
+
+    def need(ok: bool, text: str) -> None:
+        if not ok:
+            problems.append(text)
+
+    need(p.adhesion_wet <= p.adhesion_dry,
+         f"adhesion_wet = {p.adhesion_wet!r} must not exceed adhesion_dry = {p.adhesion_dry!r}")
+    need(p.max_speed_rated_mps <= p.max_speed_empty_mps,
+         f"max_speed_rated_mps = {p.max_speed_rated_mps!r} must not exceed max_speed_empty_mps = "
+         f"{p.max_speed_empty_mps!r}")
+    need(p.emergency_brake_n >= p.service_brake_n,
+         f"emergency_brake_n = {p.emergency_brake_n!r} must be >= service_brake_n = {p.service_brake_n!r}")
+    need(p.drive_wheel_base_m <= p.drive_section_length_m,
+         f"drive_wheel_base_m = {p.drive_wheel_base_m!r} must not exceed drive_section_length_m = "
+         f"{p.drive_section_length_m!r}")
+    need(p.beam_wheel_base_m <= p.beam_section_length_m,
+         f"beam_wheel_base_m = {p.beam_wheel_base_m!r} must not exceed beam_section_length_m = "
+         f"{p.beam_section_length_m!r}")
+    need(p.chain_spacing_m <= p.beam_section_length_m,
+         f"chain_spacing_m = {p.chain_spacing_m!r} must not exceed beam_section_length_m = "
+         f"{p.beam_section_length_m!r}")
+    sections = p.drive_section_length_m + p.coupler_gap_m + p.beam_section_length_m
+    need(sections <= p.length_m,
+         f"length_m = {p.length_m!r} must be at least drive_section_length_m + coupler_gap_m + "
+         f"beam_section_length_m = {sections:g}")
+    need(p.hook_mass_kg < 0.2 * p.empty_mass_kg,
+         f"hook_mass_kg = {p.hook_mass_kg!r} must be below 20 % of empty_mass_kg = {p.empty_mass_kg!r}")
+    need(4 * p.carrying_wheel_mass_kg + p.hook_mass_kg < 0.5 * p.empty_mass_kg,
+         f"4 x carrying_wheel_mass_kg + hook_mass_kg = {4 * p.carrying_wheel_mass_kg + p.hook_mass_kg:g} must be "
+         f"below half of empty_mass_kg = {p.empty_mass_kg!r}")
     return problems
 
 
 DEFAULT_VEHICLE = VehicleParams()
 """The spec's default vehicle (DX80/176Y with the documented assumptions)."""
 
-__all__ = ["G_MPS2", "DEFAULT_VEHICLE", "VehicleFileError", "VehicleParams"]
+__all__ = ["G_MPS2", "DEFAULT_VEHICLE", "PLAUSIBLE_RANGES", "VehicleFileError", "VehicleParams"]

@@ -28,8 +28,7 @@ import numpy as np
 
 import estimators
 from uuom_core.trace import Trace
-
-SCENARIOS = ("section1", "section2", "roadtest")
+from uuom_gym.sim.track import SCENARIO_NAMES as SCENARIOS
 
 # paper 000, Tables 1, 2, 4 (RMSE; mass in kg, slope in degrees as far as can be told; spec model.md §5.5)
 PAPER_MASS = {

@@ -20,6 +20,7 @@ from estimators.mmae import MMAEEstimator
 from uuom_gym.sim.station import station_trace
 from uuom_gym.sim.plant import PlantConfig
 from uuom_gym.sim.recording import simulate_run
+from uuom_gym.sim.track import SCENARIO_NAMES
 
 IMG = Path(__file__).resolve().parent.parent / "docs" / "img"
 
@@ -39,7 +40,7 @@ def time_to_within(t: np.ndarray, est: np.ndarray, truth: np.ndarray, frac: floa
 
 def eval_mmae(quick: bool) -> None:
     loads = (2000.0, 10000.0, 18000.0)
-    names = ("section1", "section2", "roadtest")
+    names = SCENARIO_NAMES
     seeds = (1,) if quick else (1, 2)
     print("\n### MMAE (30 models) on the plant\n")
     print("| scenario | load (t) | seed | mass error, last 20 % (%) | mass MAE, 2nd half (kg) | within 5 % from (s) |"

@@ -34,7 +34,7 @@ def _pitch(tr) -> np.ndarray:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--source", choices=("auto", "sim", "synthetic"), default="auto")
+    ap.add_argument("--source", choices=("sim", "synthetic"), default="sim")
     ap.add_argument("--n-train", type=int, default=8)
     ap.add_argument("--n-test", type=int, default=4)
     ap.add_argument("--duration-s", type=float, default=120.0)

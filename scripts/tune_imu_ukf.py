@@ -104,12 +104,7 @@ def tuning_sets(args):
     """Tuning and held-out runs. On the plant the tuning runs are the paper's simulated sections, which have
     grades (a random run may be level throughout, and tuning on a level run teaches the filter to ignore the
     accelerometer); held out are the road test and random stop-and-go runs."""
-    source = args.source
-    if source == "auto":
-        from uuom_gym.sim.imu_runs import plant_available
-
-        source = "sim" if plant_available() else "synthetic"
-    if source == "synthetic":
+    if args.source == "synthetic":
         runs, used = make_runs(args.n_train + args.n_test, 500, args.duration_s, "synthetic")
         return runs[:args.n_train], runs[args.n_train:], used
     from uuom_gym.sim.imu_runs import plant_run_with_pitch
@@ -123,7 +118,7 @@ def tuning_sets(args):
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--source", choices=("auto", "sim", "synthetic"), default="auto")
+    ap.add_argument("--source", choices=("sim", "synthetic"), default="sim")
     ap.add_argument("--budget", type=int, default=40)
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--n-train", type=int, default=1,

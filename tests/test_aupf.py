@@ -184,7 +184,7 @@ def test_seeded_and_deterministic() -> None:
     [("section1", 10000.0, 0.004, 0.12), ("section2", 18000.0, 0.002, 0.13)],
 )
 def test_paper_targets_on_the_plant(name: str, load_kg: float, wear_m: float, adhesion: float) -> None:
-    recording = pytest.importorskip("uuom_gym.sim.recording")
+    from uuom_gym.sim import recording
     from uuom_gym.sim.plant import PlantConfig
 
     config = PlantConfig(load_kg=load_kg, wheel_wear_m=wear_m, adhesion=adhesion)

@@ -47,7 +47,7 @@ def test_front_end_without_chains_is_the_point_mass_model() -> None:
 
 @pytest.fixture(scope="module")
 def random_runs():
-    sim = pytest.importorskip("uuom_gym.sim.recording")
+    from uuom_gym.sim import recording as sim
     from uuom_gym.sim.track import random_track
 
     runs = []

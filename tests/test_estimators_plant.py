@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 import estimators
-
-recording = pytest.importorskip("uuom_gym.sim.recording")
+from uuom_gym.sim import recording
 
 
 @pytest.fixture(scope="module")

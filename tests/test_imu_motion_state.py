@@ -13,7 +13,7 @@ from estimators.imu.motion_state import (ACCELERATING, CRUISING, DECELERATING, S
                                          TRANSITIONS, MotionStateError, MotionStateRecognizer,
                                          apply_temporal_constraint, label_motion_states, per_state_accuracy,
                                          window_features)
-from uuom_core.imu_synthetic import synthetic_imu_run
+from uuom_core.synthetic import synthetic_imu_run
 
 
 def test_labels_follow_the_speed_profile():

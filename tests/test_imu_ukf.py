@@ -7,7 +7,7 @@ import pytest
 
 import estimators
 from estimators.imu.attitude_ukf import PitchQuaternionUKF, UKFConfigError
-from uuom_core.imu_synthetic import synthetic_imu_run
+from uuom_core.synthetic import synthetic_imu_run
 
 G = 9.81
 
@@ -188,7 +188,7 @@ def test_three_axis_ukf_agrees_with_the_pitch_filter_on_pure_pitch(run):
 
 # ----------------------------------------------------------------- on the project's plant
 def test_imu_ukf_on_the_plant_follows_the_drive_unit_pitch():
-    recording = pytest.importorskip("uuom_gym.sim.recording")
+    from uuom_gym.sim import recording
     tr, log = recording.simulate_run("section1", seed=3, return_log=True, duration_s=60.0)
     s = estimators.make("imu-ukf").run(tr)
     keep = tr["t_s"] >= 10.0

@@ -197,7 +197,7 @@ def test_deterministic() -> None:
 
 
 def _plant_run(name: str, load_kg: float, seed: int = 1) -> Trace:
-    recording = pytest.importorskip("uuom_gym.sim.recording")
+    from uuom_gym.sim import recording
     return recording.simulate_run(name, seed=seed, load_kg=load_kg)
 
 
@@ -216,7 +216,6 @@ def test_converges_on_the_plant(name: str, load_kg: float) -> None:
 
 def _station_trace(load1_kg: float, load2_kg: float, seed: int = 5) -> Trace:
     """Two plant runs joined at a station stop: the train stops on the level, is loaded, drives on up the grade."""
-    pytest.importorskip("uuom_gym.sim.recording")
     from uuom_gym.sim.station import station_trace
 
     return station_trace(load1_kg, load2_kg, seed)

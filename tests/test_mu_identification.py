@@ -42,7 +42,7 @@ def test_too_few_samples_and_bad_options() -> None:
 
 def test_recovers_plant_running_resistance() -> None:
     """On the pymunk plant (model mismatch: swinging load, couplers, wheel inertia), on a surveyed constant grade."""
-    recording = pytest.importorskip("uuom_gym.sim.recording")
+    from uuom_gym.sim import recording
     from uuom_gym.sim.plant import PlantConfig
     from uuom_gym.sim.track import profile_from_knots
 

@@ -108,3 +108,18 @@ def test_geometry_helpers_are_consistent():
 def test_bad_input_is_named(make, word):
     with pytest.raises(TrackError, match=word):
         make()
+
+
+def test_every_scenario_name_has_its_track_and_driver():
+    from uuom_gym.envs.config import SCENARIOS
+    from uuom_gym.sim import SCENARIO_NAMES, scenario, scenario_track
+
+    assert SCENARIOS is SCENARIO_NAMES  # one list of names
+    for name in SCENARIO_NAMES:
+        sc = scenario(name)
+        assert sc.name == name and sc.track.name == name == scenario_track(name).name and sc.load_kg == 10_000.0
+    for bad in ("section3", None, 1):
+        with pytest.raises(TrackError, match="unknown scenario"):
+            scenario(bad)
+        with pytest.raises(TrackError, match="unknown scenario"):
+            scenario_track(bad)

@@ -11,7 +11,7 @@ import copy
 import math
 from typing import Any, Mapping
 
-SCENARIOS: tuple[str, ...] = ("section1", "section2", "roadtest")
+from uuom_gym.sim.track import SCENARIO_NAMES as SCENARIOS
 """The paper's fixed runs (spec §3): the track, the load and the nominal conditions are fixed."""
 
 RULES: tuple[str, ...] = ("speed_limit", "adhesion", "rollback", "sway", "overspeed_trip", "stall")

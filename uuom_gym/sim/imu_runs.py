@@ -1,19 +1,22 @@
 """Simulated runs for training and tuning the IMU pipeline.
 
-``source="sim"`` drives the project's pymunk plant (``uuom_gym.sim.recording.simulate_run``) over random tracks;
-``source="synthetic"`` uses the kinematic unit-test signal of :mod:`uuom_core.imu_synthetic`; ``"auto"`` takes
-the plant when it is importable and says which it used.
+``source="sim"`` (the default) drives the project's pymunk plant (``uuom_gym.sim.recording.simulate_run``) over
+random tracks; ``source="synthetic"`` uses the kinematic unit-test signal of :mod:`uuom_core.synthetic`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from uuom_core.synthetic import synthetic_imu_run
+from uuom_core.limits import load_speed_limit_mps
 from uuom_core.trace import Trace
+from uuom_core.vehicle import DEFAULT_VEHICLE
+from uuom_gym.sim.recording import simulate_run
+from uuom_gym.sim.scenarios import SpeedProfile
+from uuom_gym.sim.track import random_track
 
-from uuom_core.imu_synthetic import synthetic_imu_run
-
-__all__ = ["make_runs", "plant_available", "plant_run_with_pitch"]
+__all__ = ["make_runs", "plant_run_with_pitch"]
 
 
 def plant_run_with_pitch(*args, **kwargs) -> Trace:
@@ -23,22 +26,10 @@ def plant_run_with_pitch(*args, **kwargs) -> Trace:
     slope at the train's reference point) on grade transitions. It is the truth of what the attitude filter
     estimates.
     """
-    from uuom_gym.sim.recording import simulate_run
-
     trace, log = simulate_run(*args, return_log=True, **kwargs)
     cols = dict(trace.columns)
     cols["imu_pitch_deg"] = np.degrees(np.asarray(log.pitch_rad, dtype=np.float64))
     return Trace(cols, source=trace.source, meta=dict(trace.meta))
-
-
-def plant_available() -> bool:
-    """Whether the plant's ``simulate_run`` and ``random_track`` can be imported."""
-    try:
-        from uuom_gym.sim.recording import simulate_run  # noqa: F401
-        from uuom_gym.sim.track import random_track  # noqa: F401
-    except Exception:  # noqa: BLE001 - any import failure means: not available
-        return False
-    return True
 
 
 def _plant_run(seed: int) -> Trace:
@@ -47,11 +38,6 @@ def _plant_run(seed: int) -> Trace:
     The driver's reference speed is a function of position, so a run holds one such cycle; the standstill comes
     at its end (10-25 s of it).
     """
-    from uuom_core.limits import load_speed_limit_mps
-    from uuom_gym.sim.scenarios import SpeedProfile
-    from uuom_gym.sim.track import random_track
-    from uuom_core.vehicle import DEFAULT_VEHICLE
-
     rng = np.random.default_rng(seed)
     veh = DEFAULT_VEHICLE
     load = float(rng.uniform(0.0, veh.rated_load_kg))
@@ -68,16 +54,14 @@ def _plant_run(seed: int) -> Trace:
     return plant_run_with_pitch(track, seed=seed, load_kg=load, speed_profile=profile, duration_s=duration)
 
 
-def make_runs(n: int, seed: int, duration_s: float = 120.0, source: str = "auto") -> tuple[list[Trace], str]:
+def make_runs(n: int, seed: int, duration_s: float = 120.0, source: str = "sim") -> tuple[list[Trace], str]:
     """``n`` runs with IMU columns and truth, seeds ``seed, seed+1, ...``; returns ``(traces, source_used)``.
 
     ``duration_s`` applies to synthetic runs; a plant run lasts its stop-and-go cycle plus 10-25 s at rest.
     Every run has the column ``imu_pitch_deg`` (true pitch of the IMU) besides the trace truth.
     """
-    if source not in ("auto", "sim", "synthetic"):
-        raise ValueError(f"source must be 'auto', 'sim' or 'synthetic', got {source!r}")
-    if source == "auto":
-        source = "sim" if plant_available() else "synthetic"
+    if source not in ("sim", "synthetic"):
+        raise ValueError(f"source must be 'sim' or 'synthetic', got {source!r}")
     runs: list[Trace] = []
     if source == "synthetic":
         runs = []

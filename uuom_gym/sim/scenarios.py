@@ -72,26 +72,23 @@ class Scenario:
     description: str = ""
 
 
+# driver's speed profile, load and description of each scenario (the tracks: uuom_gym.sim.track.scenario_track)
+_SCENARIOS: dict[str, tuple[SpeedProfile, float, str]] = {
+    "section1": (SpeedProfile(((0.0, 1.0), (40.0, 1.0), (48.0, 0.8))), 10_000.0,
+                 "level track, transition, 8 deg up-grade (paper 000 §4.2)"),
+    "section2": (SpeedProfile.constant(0.8), 10_000.0, "continuously varying grade (paper 000 §4.3)"),
+    "roadtest": (SpeedProfile(((0.0, 1.0), (40.0, 1.0), (43.0, 0.5), (60.0, 0.5), (63.0, 0.7))), 10_000.0,
+                 "near-level stretch, transition, up-grade, high level stretch; 10 t (paper 000 §5.2)"),
+}
+
+
 def scenario(name: str) -> Scenario:
     """The scenario called ``name`` (one of :data:`SCENARIO_NAMES`)."""
-    if name == "section1":
-        return Scenario(
-            name, scenario_track(name), 10_000.0,
-            SpeedProfile(((0.0, 1.0), (40.0, 1.0), (48.0, 0.8))), 120.0, 0.0,
-            "level track, transition, 8 deg up-grade (paper 000 §4.2)",
-        )
-    if name == "section2":
-        return Scenario(
-            name, scenario_track(name), 10_000.0, SpeedProfile.constant(0.8), 120.0, 0.0,
-            "continuously varying grade (paper 000 §4.3)",
-        )
-    if name == "roadtest":
-        return Scenario(
-            name, scenario_track(name), 10_000.0,
-            SpeedProfile(((0.0, 1.0), (40.0, 1.0), (43.0, 0.5), (60.0, 0.5), (63.0, 0.7))), 120.0, 0.0,
-            "near-level stretch, transition, up-grade, high level stretch; 10 t (paper 000 §5.2)",
-        )
-    raise TrackError(f"unknown scenario {name!r}; known: {', '.join(SCENARIO_NAMES)}")
+    entry = _SCENARIOS.get(name) if isinstance(name, str) else None
+    if entry is None:
+        raise TrackError(f"unknown scenario {name!r}; known: {', '.join(SCENARIO_NAMES)}")
+    profile, load_kg, description = entry
+    return Scenario(name, scenario_track(name), load_kg, profile, 120.0, 0.0, description)
 
 
 __all__ = ["SCENARIO_NAMES", "Scenario", "SpeedProfile", "scenario"]

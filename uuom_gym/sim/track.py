@@ -243,7 +243,32 @@ def random_track(
     return TrackProfile(s, np.radians(slope), name=name)
 
 
-SCENARIO_NAMES: tuple[str, ...] = ("section1", "section2", "roadtest")
+def _section1(grid_m: float) -> TrackProfile:
+    return profile_from_knots([(0, 0.0), (45, 0.0), (65, 8.0), (250, 8.0)], "section1", grid_m)
+
+
+def _section2(grid_m: float) -> TrackProfile:
+    s = np.arange(0.0, 200.0 + grid_m / 2, grid_m)
+    ramp = np.clip(s / 20.0, 0.0, 1.0)
+    deg = ramp * (3.5 + 3.0 * np.sin(2 * np.pi * s / 70.0 - np.pi / 2) + 1.2 * np.sin(2 * np.pi * s / 23.0))
+    deg = np.where(s < 5.0, 0.0, deg)
+    return TrackProfile(s, np.radians(deg), name="section2")
+
+
+def _roadtest(grid_m: float) -> TrackProfile:
+    return profile_from_knots(
+        [
+            (0, 0.0), (10, 0.0), (16, 0.6), (24, 0.6), (30, -0.5), (36, -0.5), (41, 0.3), (44, 0.3),
+            (51, 11.0), (54, 11.0), (57, 7.0), (58, 7.0), (63, 0.8), (160, 0.8),
+        ],
+        "roadtest",
+        grid_m,
+    )
+
+
+# The one list of the named scenarios (the paper's track sections): everything else takes the names from here.
+_SCENARIO_TRACKS = {"section1": _section1, "section2": _section2, "roadtest": _roadtest}
+SCENARIO_NAMES: tuple[str, ...] = tuple(_SCENARIO_TRACKS)
 
 
 def scenario_track(name: str, grid_m: float = GRID_M) -> TrackProfile:
@@ -254,24 +279,10 @@ def scenario_track(name: str, grid_m: float = GRID_M) -> TrackProfile:
     high level stretch. Transitions are vertical curves of radius >= 40 m; sharper ones make the wheels knock at
     the 0.5 m rail-polyline vertices (visible as accelerometer spikes).
     """
-    if name == "section1":
-        return profile_from_knots([(0, 0.0), (45, 0.0), (65, 8.0), (250, 8.0)], name, grid_m)
-    if name == "section2":
-        s = np.arange(0.0, 200.0 + grid_m / 2, grid_m)
-        ramp = np.clip(s / 20.0, 0.0, 1.0)
-        deg = ramp * (3.5 + 3.0 * np.sin(2 * np.pi * s / 70.0 - np.pi / 2) + 1.2 * np.sin(2 * np.pi * s / 23.0))
-        deg = np.where(s < 5.0, 0.0, deg)
-        return TrackProfile(s, np.radians(deg), name=name)
-    if name == "roadtest":
-        return profile_from_knots(
-            [
-                (0, 0.0), (10, 0.0), (16, 0.6), (24, 0.6), (30, -0.5), (36, -0.5), (41, 0.3), (44, 0.3),
-                (51, 11.0), (54, 11.0), (57, 7.0), (58, 7.0), (63, 0.8), (160, 0.8),
-            ],
-            name,
-            grid_m,
-        )
-    raise TrackError(f"unknown scenario track {name!r}; known: {', '.join(SCENARIO_NAMES)}")
+    build = _SCENARIO_TRACKS.get(name) if isinstance(name, str) else None
+    if build is None:
+        raise TrackError(f"unknown scenario track {name!r}; known: {', '.join(SCENARIO_NAMES)}")
+    return build(grid_m)
 
 
 __all__ = [

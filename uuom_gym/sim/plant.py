@@ -186,10 +186,6 @@ class MonorailPlant:
         return self._truth.t_s
 
     @property
-    def _t(self) -> float:  # (older name, kept for code that reads it)
-        return self._truth.t_s
-
-    @property
     def position_m(self) -> float:
         d = self.drive_body
         ang = d.angle
@@ -324,7 +320,7 @@ class MonorailPlant:
         for k0 in range(0, n, _FRICTION_UPDATE_TICKS):
             self._set_friction(brake)
             for k in range(k0, min(n, k0 + _FRICTION_UPDATE_TICKS)):
-                tq = motor_torque_nm(c_trac, omega, dp)
+                tq = motor_torque_nm(c_trac, omega, dp) if c_trac > 0.0 else 0.0
                 f, slipping, sgn, omega_next, restick = drive_force(c_trac, tq, omega, slipping, v_prev, a_prev, dp)
                 push(cbody, (f, 0.0), zero)
                 if books is not None:

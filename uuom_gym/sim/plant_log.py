@@ -146,7 +146,10 @@ class TruthLogBuilder:
         self.dt_s = dt_s
         self.n_bodies = n_bodies
         self.index = index
-        self.sel_bodies = [index["drive"], index["beam"], index["load"]]
+        sel = [index["drive"], index["beam"], index["load"]]
+        # the three bodies are consecutive in the buffer (they are added in this order): a slice is cheaper than
+        # fancy indexing and gives the same values
+        self.sel_bodies = slice(sel[0], sel[0] + 3) if sel == list(range(sel[0], sel[0] + 3)) else sel
         self.body_mass_share = body_mass_share
         # chain points in body coordinates, as columns for (beam, load): top of the front chain, its bottom
         self.chain_pts = (np.array([[chain_top[0]], [chain_bottom[0]]]), np.array([[chain_top[1]], [chain_bottom[1]]]))

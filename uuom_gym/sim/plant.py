@@ -277,20 +277,28 @@ class MonorailPlant:
         n_ticks : int
             Number of ticks (>= 1).
         """
-        if isinstance(command, bool) or not isinstance(command, (int, float, np.floating, np.integer)):
-            raise PlantConfigError(f"command must be a number in [-1, 1], got {command!r}")
-        command = float(command)
-        if not (math.isfinite(command) and -1.0 <= command <= 1.0):
-            raise PlantConfigError(f"command must be finite and in [-1, 1], got {command!r}")
-        if isinstance(n_ticks, bool) or not isinstance(n_ticks, (int, np.integer)) or n_ticks < 1:
-            raise PlantConfigError(f"n_ticks must be an integer >= 1, got {n_ticks!r}")
-        n = int(n_ticks)
+        command, n = _checked_command(command, n_ticks)
         veh = self.vehicle
         brake = 0.0 if command >= 0 else -command * veh.service_brake_n
         if self._emergency:
             brake = max(brake, veh.emergency_brake_n)
         self._brake_n = brake
-        c_trac = command if command > 0 else 0.0
+        v_start = self._prev_v
+        torque, force, omega_log, slip_log = self._run_ticks(command if command > 0 else 0.0, brake, n)
+        self._last_torque = float(torque[-1])
+        self._last_force = float(force[-1])
+        raw = np.frombuffer(self._ops.buffer.float_buf(), dtype=np.float64).reshape(n, self._n_bodies, 6)
+        log = self._truth.build(
+            raw, np.array(torque), np.array(force), np.array(omega_log), np.array(slip_log, dtype=bool), brake,
+            v_start,
+        )
+        self._last_row = None
+        self._last_log = log
+        return log
+
+    def _run_ticks(self, c_trac: float, brake: float, n: int) -> tuple[list, list, list, list]:
+        """The tick loop: drive force, physics step, body log, drive-wheel update; returns the drive's columns
+        (motor torque, contact force, wheel speed, slipping) and leaves the bodies' states in the batch buffer."""
         if self._ops is None:
             self._ops = tick_ops(self.space, self.drive_body, self.dt_s, fast=self._fast)
         ops = self._ops
@@ -345,21 +353,23 @@ class MonorailPlant:
                 force[k] = f
                 omega_log[k] = omega
                 slip_log[k] = slipping
-        v_start = self._prev_v
         self._prev_v = v_prev
         self._omega = omega
         self._slipping = slipping
         self._accel = a_prev
-        self._last_torque = float(torque[-1])
-        self._last_force = float(force[-1])
-        raw = np.frombuffer(ops.buffer.float_buf(), dtype=np.float64).reshape(n, self._n_bodies, 6)
-        log = self._truth.build(
-            raw, np.array(torque), np.array(force), np.array(omega_log), np.array(slip_log, dtype=bool), brake,
-            v_start,
-        )
-        self._last_row = None
-        self._last_log = log
-        return log
+        return torque, force, omega_log, slip_log
+
+
+def _checked_command(command: float, n_ticks: int) -> tuple[float, int]:
+    """``(command, n_ticks)`` as float and int, or :class:`PlantConfigError` naming the bad one."""
+    if isinstance(command, bool) or not isinstance(command, (int, float, np.floating, np.integer)):
+        raise PlantConfigError(f"command must be a number in [-1, 1], got {command!r}")
+    command = float(command)
+    if not (math.isfinite(command) and -1.0 <= command <= 1.0):
+        raise PlantConfigError(f"command must be finite and in [-1, 1], got {command!r}")
+    if isinstance(n_ticks, bool) or not isinstance(n_ticks, (int, np.integer)) or n_ticks < 1:
+        raise PlantConfigError(f"n_ticks must be an integer >= 1, got {n_ticks!r}")
+    return command, int(n_ticks)
 
 
 __all__ = ["LOG_FIELDS", "MonorailPlant", "PlantConfig", "PlantConfigError", "PlantLog", "PlantState"]

@@ -276,6 +276,12 @@ class MonorailPlant:
             ``vehicle.service_brake_n``.
         n_ticks : int
             Number of ticks (>= 1).
+
+        Returns
+        -------
+        PlantLog
+            One row per tick. :attr:`state` is read from its last row when asked for, so modify a copy of its
+            arrays, not the arrays themselves.
         """
         command, n = _checked_command(command, n_ticks)
         veh = self.vehicle

@@ -29,7 +29,15 @@ from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
 
 class InvalidActionError(ValueError):
-    """An action that is not a finite array of shape (1,)."""
+    """An action that is not one finite real number (a Python/NumPy real scalar or a real array of shape (1,))."""
+
+
+class ResetNeeded(gym.error.ResetNeeded, RuntimeError):
+    """``step()`` before the first ``reset()`` or after the episode ended (Gymnasium's ``OrderEnforcing`` rule).
+
+    Derives from :class:`gymnasium.error.ResetNeeded` (what Gymnasium's order enforcing raises) and from
+    :class:`RuntimeError` (what this env raised before v0 was hardened).
+    """
 
 
 class UUOMTrackEnv(gym.Env):
@@ -145,6 +153,8 @@ class UUOMTrackEnv(gym.Env):
         self._renderer = None
         self.plant = None
         self.track = None
+        self._episode_over = False
+        self._end_reason = ""
 
     # ------------------------------------------------------------------------------------------------------------
     @staticmethod
@@ -193,6 +203,8 @@ class UUOMTrackEnv(gym.Env):
         self.true_limit_mps = float(self.safety.speed_limit(self.true_slope_rad)[0])
         self._last_violations: tuple[str, ...] = ()
         self._last_cost = 0.0
+        self._episode_over = False
+        self._end_reason = ""
         obs = self._observation()
         info = self._info(cost=0.0, costs={r: 0.0 for r in self.violation_counts},
                           violations={r: False for r in self.violation_counts},
@@ -203,7 +215,11 @@ class UUOMTrackEnv(gym.Env):
 
     def step(self, action: Any):
         if self.plant is None:
-            raise RuntimeError("UUOMTrackEnv.step() called before reset()")
+            raise ResetNeeded("UUOMTrackEnv.step() called before reset(); call env.reset() first")
+        if self._episode_over:
+            raise ResetNeeded(
+                f"UUOMTrackEnv.step() called after the episode ended ({self._end_reason}); call env.reset() first"
+            )
         from uuom_gym.envs import _plant_adapter as pa
 
         command = _check_action(action)
@@ -267,6 +283,10 @@ class UUOMTrackEnv(gym.Env):
             self.violation_counts[r] += int(hit)
         self._last_violations = tuple(r for r, hit in rep.violations.items() if hit)
         self._last_cost = rep.cost
+        if terminated or truncated:
+            # Stepping on would run physics past an emergency brake or the station; Gymnasium forbids it.
+            self._episode_over = True
+            self._end_reason = f"{'terminated' if terminated else 'truncated'}: {termination}"
         obs = self._observation()
         info = self._info(rep.cost, rep.costs, rep.violations, rewards, termination == "arrived", termination)
         if self.render_mode == "human":
@@ -388,20 +408,37 @@ def _make_vehicle(spec: Any) -> VehicleParams:
     raise ConfigError(f"config key 'vehicle' must be None, a VehicleParams or a dict of overrides, got {spec!r}")
 
 
+_ACTION_HELP = "action must be one real number: a Python/NumPy int or float, or a real array of shape (1,)"
+
+
 def _check_action(action: Any) -> float:
-    try:
-        a = np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InvalidActionError(f"action must be a numeric array of shape (1,), got {action!r}") from None
-    if a.shape != (1,):
-        if a.size == 1 and a.ndim <= 1:
-            a = a.reshape(1)
-        else:
+    """The action as a float in ``[-1, 1]``; anything but one finite real number raises InvalidActionError.
+
+    Accepted: ``int``/``float`` (not ``bool``), NumPy integer/floating scalars, and real (integer or floating
+    dtype) arrays or sequences of shape ``()`` or ``(1,)``. Rejected with the type named: ``bool``, complex,
+    strings, ``None``, objects, other shapes, NaN/inf.
+    """
+    if isinstance(action, (bool, np.bool_)):
+        raise InvalidActionError(f"{_ACTION_HELP}, got bool {action!r}")
+    if isinstance(action, (int, float, np.integer, np.floating)):
+        x = float(action)
+    else:
+        if action is None or isinstance(action, (str, bytes, complex, np.complexfloating, Mapping)):
+            raise InvalidActionError(f"{_ACTION_HELP}, got {type(action).__name__} {action!r}")
+        try:
+            a = np.asarray(action)
+        except (TypeError, ValueError):
+            raise InvalidActionError(f"{_ACTION_HELP}, got {type(action).__name__} {action!r}") from None
+        if a.dtype.kind not in "iuf":
+            raise InvalidActionError(
+                f"{_ACTION_HELP}, got {type(action).__name__} of dtype {a.dtype} ({action!r})"
+            )
+        if a.shape not in ((), (1,)):
             raise InvalidActionError(f"action must have shape (1,), got shape {a.shape}")
-    x = float(a[0])
+        x = float(a.reshape(-1)[0])
     if not math.isfinite(x):
-        raise InvalidActionError(f"action must be finite, got {x!r}")
+        raise InvalidActionError(f"action must be finite, got {type(action).__name__} {x!r}")
     return min(max(x, -1.0), 1.0)
 
 
-__all__ = ["InvalidActionError", "UUOMTrackEnv"]
+__all__ = ["InvalidActionError", "ResetNeeded", "UUOMTrackEnv"]

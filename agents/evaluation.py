@@ -1,0 +1,415 @@
+"""Evaluate controllers x observers on the same held-out seeded ``UUOM-Track-v0`` tracks.
+
+This table answers "how much does the estimator decide control safety?". Controllers (``spec`` strings):
+``oracle`` (minimum-time controller with perfect knowledge; observer-independent, run once and the reference
+for trip time), ``rule-based``, ``full-throttle``, a run directory of :func:`agents.training.train` (model +
+VecNormalize stats; a run trained with the shield and/or the residual is evaluated the same way), and
+``<any>+shield`` to put the safety shield in front of any controller.
+
+For every controller x observer, on episodes with seeds ``seed_base .. seed_base + episodes - 1`` (the same
+tracks, loads and conditions for every row): success rate, overspeed trips, violations per km by rule, cost
+rate (mean ``info["cost"]`` per policy step), trip time relative to the oracle controller on the same track (mean
+over tracks both completed), traction energy per t km, mean estimator errors. :func:`evaluate` writes
+``episodes.csv``, ``summary.csv``, ``summary.md`` and the figures (:mod:`agents.evaluation_plots`) into
+``config.out``. Episodes run in parallel with multiprocessing or on Ray (:mod:`agents.ray_support`).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ENV_ID = "UUOM-Track-v0"
+DEFAULT_OBSERVERS = ("oracle", "dffrls-aekf", "rls-ekf", "ekf", "ffrls", "none")
+DEFAULT_SEED_BASE = 100_000
+"""Held-out tracks: training uses seeds near 0 and its EvalCallback near 1 000 000."""
+RULES = ("speed_limit", "adhesion", "rollback", "sway", "overspeed_trip", "stall")
+
+
+@dataclass(frozen=True)
+class Task:
+    """One episode to run: a controller spec on one observer and one track seed."""
+
+    controller: str
+    observer: str
+    seed: int
+    env_kwargs_json: str = "{}"
+    record: bool = False
+
+
+# --- controllers ---------------------------------------------------------------------------------------------
+def split_shield(spec: str) -> tuple[str, bool]:
+    """``("rule-based", True)`` for ``"rule-based+shield"``."""
+    if spec.endswith("+shield"):
+        return spec[: -len("+shield")], True
+    return spec, False
+
+
+def controller_label(spec: str) -> str:
+    """Short label for tables: run directories by their name."""
+    base, shield = split_shield(spec)
+    label = Path(base).name if ("/" in base or Path(base).is_dir()) else base
+    return label + ("+shield" if shield else "")
+
+
+class ModelPolicy:
+    """A trained SB3 model with its VecNormalize observation statistics, acting on raw observations.
+
+    Parameters
+    ----------
+    run_dir : Path
+        A training run directory (``model.zip``, optional ``vecnormalize.pkl`` and ``config.json``).
+    """
+
+    def __init__(self, run_dir: Path) -> None:
+        import pickle
+
+        import torch
+
+        from agents.algos import algo_class
+
+        torch.set_num_threads(1)  # one episode per process: threads would only fight over the cores
+
+        cfg = json.loads((run_dir / "config.json").read_text()) if (run_dir / "config.json").exists() else {}
+        self.shield = bool(cfg.get("shield", False))
+        self.residual = float(cfg.get("residual", 0.0))
+        algo = cfg.get("algo", "ppo")
+        path = run_dir / "model.zip"
+        vn_path = run_dir / "vecnormalize.pkl"
+        if not path.exists():
+            raise FileNotFoundError(f"{run_dir}: no model.zip (train it with uuom-train first)")
+        self.model = algo_class(algo).load(path, device="cpu")
+        self.vecnorm = None
+        if vn_path.exists():
+            with open(vn_path, "rb") as fh:
+                self.vecnorm = pickle.load(fh)
+            self.vecnorm.training = False
+
+    def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        """Deterministic action for one raw observation."""
+        o = self.vecnorm.normalize_obs(obs) if self.vecnorm is not None and self.vecnorm.norm_obs else obs
+        action, _ = self.model.predict(o, deterministic=True)
+        return np.asarray(action, dtype=np.float32).reshape(1)
+
+
+_MODEL_CACHE: dict[str, ModelPolicy] = {}
+
+
+def make_controller(spec: str, vehicle: Any) -> Any:
+    """A reference controller by name, or the (cached per process) trained model of a run directory."""
+    from agents.controllers import CONTROLLERS
+
+    base, _ = split_shield(spec)
+    if base in CONTROLLERS:
+        return CONTROLLERS[base](vehicle)
+    if base not in _MODEL_CACHE:
+        _MODEL_CACHE[base] = ModelPolicy(Path(base))
+    return _MODEL_CACHE[base]
+
+
+def run_episode(task: Task) -> dict[str, Any]:
+    """Run one episode; return its flat summary row (and, if ``task.record``, the per-step trace)."""
+    import gymnasium as gym
+
+    import uuom_gym  # noqa: F401 - registers the env
+    from agents.metrics import EpisodeAccumulator
+    from agents.shield import ShieldWrapper
+
+    env_kwargs = json.loads(task.env_kwargs_json)
+    env = gym.make(ENV_ID, observer=task.observer, **env_kwargs)
+    vehicle = env.unwrapped.vehicle
+    ctrl = make_controller(task.controller, vehicle)
+    shield = split_shield(task.controller)[1] or bool(getattr(ctrl, "shield", False))
+    if shield:
+        env = ShieldWrapper(env)
+    if getattr(ctrl, "residual", 0.0) > 0:
+        from agents.residual import ResidualWrapper
+
+        env = ResidualWrapper(env, scale=ctrl.residual)
+    obs, info = env.reset(seed=task.seed)
+    if hasattr(ctrl, "reset"):
+        ctrl.reset(env, info)
+    acc = EpisodeAccumulator()
+    acc.start(info)
+    keys = ("t_s", "position_m", "speed_mps", "true_limit_mps", "est_limit_mps", "command")
+    trace: dict[str, list[float]] = {k: [] for k in keys}
+    t0 = time.perf_counter()
+    while True:
+        action = ctrl.act(obs, info)
+        obs, _, term, trunc, info = env.step(action)
+        acc.add(info)
+        if task.record:
+            trace["t_s"].append(info["t_s"])
+            trace["position_m"].append(info["position_m"])
+            trace["speed_mps"].append(info["speed_mps"])
+            trace["true_limit_mps"].append(info["true_speed_limit_mps"])
+            trace["est_limit_mps"].append(info["est_speed_limit_mps"])
+            trace["command"].append(float(info.get("shield_command", info["command"])))
+        if term or trunc:
+            break
+    env.close()
+    row = acc.finish(info).flat()
+    row.update(
+        controller=controller_label(task.controller),
+        observer=task.observer,
+        seed=task.seed,
+        wall_s=time.perf_counter() - t0,
+        shield_interventions=int(info.get("shield_interventions", 0)),
+    )
+    if task.record:
+        row["trace"] = trace
+    return row
+
+
+# --- parallel execution --------------------------------------------------------------------------------------
+def _progress(i: int, n: int, show: bool) -> None:
+    if show:
+        print(f"\r{i}/{n} episodes", end="", file=sys.stderr, flush=True)
+
+
+def run_tasks(tasks: list[Task], workers: int, use_ray: bool = False, progress: bool = True) -> list[dict[str, Any]]:
+    """Run the episodes locally (multiprocessing) or on Ray; results in task order."""
+    if use_ray:
+        from agents.ray_support import init_ray
+
+        ray = init_ray()
+        remote = ray.remote(run_episode)
+        return ray.get([remote.remote(t) for t in tasks])
+    out: list[dict[str, Any]] = []
+    if workers <= 1:
+        for i, t in enumerate(tasks):
+            out.append(run_episode(t))
+            _progress(i + 1, len(tasks), progress)
+    else:
+        import multiprocessing as mp
+
+        ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+        with ctx.Pool(workers) as pool:
+            for i, row in enumerate(pool.imap(run_episode, tasks, chunksize=1)):
+                out.append(row)
+                _progress(i + 1, len(tasks), progress)
+    if progress:
+        print(file=sys.stderr)
+    return out
+
+
+# --- aggregation ---------------------------------------------------------------------------------------------
+def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[dict[str, Any]]:
+    """One summary row per (controller, observer)."""
+    ref = {r["seed"]: r["trip_time_s"] for r in rows if r["controller"] == oracle_label and r["success"]}
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault((r["controller"], r["observer"]), []).append(r)
+    out = []
+    for (ctrl, obs), rs in groups.items():
+        n = len(rs)
+        km = sum(r["distance_m"] for r in rs) / 1000.0
+        steps = sum(r["steps"] for r in rs)
+        ratios = [r["trip_time_s"] / ref[r["seed"]] for r in rs if r["success"] and r["seed"] in ref]
+        energy = [r["energy_kj_per_tkm"] for r in rs if r["success"] and math.isfinite(r["energy_kj_per_tkm"])]
+        mass_err = [r["mass_err_pct"] for r in rs if math.isfinite(r["mass_err_pct"])]
+        slope_err = [r["slope_err_deg"] for r in rs if math.isfinite(r["slope_err_deg"])]
+        row = {
+            "controller": ctrl,
+            "observer": obs,
+            "episodes": n,
+            "success_rate": sum(bool(r["success"]) for r in rs) / n,
+            "overspeed_trips": sum(bool(r["overspeed_trip"]) for r in rs),
+            "cost_rate": sum(r["cost"] for r in rs) / max(steps, 1),
+            "trip_time_vs_oracle": float(np.mean(ratios)) if ratios else float("nan"),
+            "energy_kj_per_tkm": float(np.mean(energy)) if energy else float("nan"),
+            "mass_err_pct": float(np.mean(mass_err)) if mass_err else float("nan"),
+            "slope_err_deg": float(np.mean(slope_err)) if slope_err else float("nan"),
+            "km": km,
+        }
+        for rule in RULES:
+            row[f"viol_per_km/{rule}"] = sum(r[f"violations/{rule}"] for r in rs) / max(km, 1e-9)
+        out.append(row)
+    order = {o: i for i, o in enumerate(DEFAULT_OBSERVERS)}
+    out.sort(key=lambda r: (r["controller"] != oracle_label, r["controller"], order.get(r["observer"], 99), r["observer"]))
+    return out
+
+
+def write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
+    """Rows as CSV (columns in first-seen order; the recorded traces are left out)."""
+    keys: list[str] = []
+    for r in rows:
+        for k in r:
+            if k not in keys and k != "trace":
+                keys.append(k)
+    with path.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+
+
+def read_episodes(path: Path) -> list[dict[str, Any]]:
+    """Rows of an ``episodes.csv`` with numbers and booleans parsed back."""
+    rows = []
+    with path.open() as fh:
+        for r in csv.DictReader(fh):
+            out: dict[str, Any] = {}
+            for k, v in r.items():
+                if v in ("True", "False"):
+                    out[k] = v == "True"
+                    continue
+                try:
+                    out[k] = int(v)
+                except ValueError:
+                    try:
+                        out[k] = float(v)
+                    except ValueError:
+                        out[k] = v
+            out["controller"] = str(r["controller"])
+            out["observer"] = str(r["observer"])
+            rows.append(out)
+    return rows
+
+
+def markdown_table(summary: list[dict[str, Any]]) -> str:
+    """The Markdown table of the summary (the README shows it)."""
+    head = (
+        "| controller | observer | success | overspeed trips | cost rate | trip time / oracle | energy kJ/(t km) "
+        "| viol/km speed | adhesion | rollback | sway | stall | mass err % | slope err deg |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+    )
+
+    def f(x: float, nd: int = 3) -> str:
+        return "n/a" if not math.isfinite(x) else f"{x:.{nd}f}"
+
+    lines = []
+    for r in summary:
+        lines.append(
+            f"| {r['controller']} | {r['observer']} | {100 * r['success_rate']:.0f} % | {r['overspeed_trips']}/{r['episodes']} "
+            f"| {r['cost_rate']:.2e} | {f(r['trip_time_vs_oracle'], 3)} | {f(r['energy_kj_per_tkm'], 0)} "
+            f"| {f(r['viol_per_km/speed_limit'], 1)} | {f(r['viol_per_km/adhesion'], 1)} | {f(r['viol_per_km/rollback'], 1)} "
+            f"| {f(r['viol_per_km/sway'], 1)} | {f(r['viol_per_km/stall'], 1)} | {f(r['mass_err_pct'], 1)} | {f(r['slope_err_deg'], 2)} |"
+        )
+    return head + "\n".join(lines) + "\n"
+
+
+# --- the whole evaluation ------------------------------------------------------------------------------------
+@dataclass
+class EvalConfig:
+    """What :func:`evaluate` runs and where it writes (the fields of ``uuom-evaluate``'s options).
+
+    ``merge``: build the table from the ``episodes.csv`` of earlier ``out`` directories instead of running
+    episodes (only the one recorded episode per controller for the speed plot is run). ``command``: the command
+    line written into ``summary.md`` (``None``: "called from Python").
+    """
+
+    controllers: list[str] = field(default_factory=lambda: ["oracle", "rule-based"])
+    observers: list[str] = field(default_factory=lambda: list(DEFAULT_OBSERVERS))
+    episodes: int = 100
+    seed_base: int = DEFAULT_SEED_BASE
+    workers: int = 1
+    use_ray: bool = False
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    out: Path = Path("results/eval")
+    plot_seed: int | None = None
+    plot_observer: str = "dffrls-aekf"
+    bars_png: Path | None = None
+    episode_png: Path | None = None
+    merge: list[Path] | None = None
+    quiet: bool = False
+    command: str | None = None
+
+
+def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
+    """Run the evaluation; return the summary rows (files written to ``config.out``).
+
+    Raises
+    ------
+    ValueError
+        If ``config.episodes < 1``.
+    """
+    from agents.evaluation_plots import plot_bars, plot_episode
+
+    if config.episodes < 1:
+        raise ValueError(f"episodes must be >= 1, got {config.episodes}")
+    kw = json.dumps(config.env_kwargs, sort_keys=True)
+    seeds = [config.seed_base + i for i in range(config.episodes)]
+    plot_seed = seeds[0] if config.plot_seed is None else config.plot_seed
+    cmd = config.command or "(called from Python)"
+    out = Path(config.out)
+    if config.merge:
+        rows = _merged_rows(config.merge)
+        seeds = sorted({int(r["seed"]) for r in rows})
+        head = (f"Held-out seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} tracks), {len(rows)} episodes merged from "
+                f"{', '.join(str(d) for d in config.merge)}.\nCommand: `{cmd}`\n\n")
+        rec_tasks = [Task(c, "oracle" if split_shield(c)[0] == "oracle" else config.plot_observer, plot_seed, kw, True)
+                     for c in config.controllers]
+        rec = run_tasks(rec_tasks, min(config.workers, len(rec_tasks)), config.use_ray, progress=False)
+    else:
+        tasks: list[Task] = []
+        for ctrl in config.controllers:
+            base, _ = split_shield(ctrl)
+            # The oracle controller reads the truth, not the observation: one run per track serves every observer.
+            observers = ["oracle"] if base == "oracle" else config.observers
+            for obs in observers:
+                for s in seeds:
+                    record = s == plot_seed and (obs == config.plot_observer or base == "oracle")
+                    tasks.append(Task(ctrl, obs, s, kw, record=record))
+        t0 = time.time()
+        rows = run_tasks(tasks, config.workers, config.use_ray, progress=not config.quiet)
+        wall = time.time() - t0
+        head = (f"Held-out seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} tracks), {len(rows)} episodes in {wall:.0f} s.\n"
+                f"Command: `{cmd}`\n\n")
+        rec = [r for r in rows if "trace" in r and (r["observer"] == config.plot_observer or r["controller"] == "oracle")]
+    summary = summarise(rows)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "episodes.csv", rows)
+    write_csv(out / "summary.csv", summary)
+    md = markdown_table(summary)
+    (out / "summary.md").write_text(head + md)
+    plot_bars(summary, out / "bars.png")
+    plot_episode(rec, out / "episode.png")
+    for src, dst in ((out / "bars.png", config.bars_png), (out / "episode.png", config.episode_png)):
+        if dst is not None and src.exists():
+            Path(dst).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy(src, dst)
+    if not config.quiet:
+        print(md)
+        print(f"{len(rows)} episodes -> {out}")
+    return summary
+
+
+def _merged_rows(dirs: list[Path]) -> list[dict[str, Any]]:
+    rows: list[dict[str, Any]] = []
+    seen: set[tuple[str, str, int]] = set()
+    for d in dirs:
+        for r in read_episodes(Path(d) / "episodes.csv"):
+            key = (r["controller"], r["observer"], int(r["seed"]))
+            if key not in seen:  # the same episode in two directories (e.g. the oracle rows) counts once
+                seen.add(key)
+                rows.append(r)
+    return rows
+
+
+__all__ = [
+    "DEFAULT_OBSERVERS",
+    "DEFAULT_SEED_BASE",
+    "EvalConfig",
+    "ModelPolicy",
+    "RULES",
+    "Task",
+    "controller_label",
+    "evaluate",
+    "make_controller",
+    "markdown_table",
+    "read_episodes",
+    "run_episode",
+    "run_tasks",
+    "split_shield",
+    "summarise",
+    "write_csv",
+]

@@ -35,6 +35,10 @@ DEFAULT_SEED_BASE = 100_000
 RULES = ("speed_limit", "adhesion", "rollback", "sway", "overspeed_trip", "stall")
 
 
+class EvalConfigError(ValueError):
+    """An evaluation input that cannot work (unknown controller or observer, no episodes, missing directory)."""
+
+
 @dataclass(frozen=True)
 class Task:
     """One episode to run: a controller spec on one observer and one track seed."""
@@ -329,13 +333,14 @@ def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
 
     Raises
     ------
-    ValueError
-        If ``config.episodes < 1``.
+    EvalConfigError
+        Bad input (checked before any episode runs).
+    agents.ray_support.RayUnavailableError
+        ``use_ray`` without Ray installed.
     """
     from agents.evaluation_plots import plot_bars, plot_episode
 
-    if config.episodes < 1:
-        raise ValueError(f"episodes must be >= 1, got {config.episodes}")
+    check_config(config)
     kw = json.dumps(config.env_kwargs, sort_keys=True)
     seeds = [config.seed_base + i for i in range(config.episodes)]
     plot_seed = seeds[0] if config.plot_seed is None else config.plot_seed
@@ -383,6 +388,41 @@ def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
     return summary
 
 
+def check_config(config: EvalConfig) -> None:
+    """Check every input in this process, before any worker starts.
+
+    Raises
+    ------
+    EvalConfigError
+        The first input that cannot work, named.
+    """
+    import gymnasium as gym
+
+    import uuom_gym  # noqa: F401 - registers the env
+    from agents.controllers import CONTROLLERS
+
+    if config.episodes < 1:
+        raise EvalConfigError(f"episodes must be >= 1, got {config.episodes}")
+    if config.workers < 1:
+        raise EvalConfigError(f"workers must be >= 1, got {config.workers}")
+    if not config.controllers:
+        raise EvalConfigError("no controllers given")
+    for spec in config.controllers:
+        base, _ = split_shield(spec)
+        if base not in CONTROLLERS and not (Path(base) / "model.zip").is_file():
+            raise EvalConfigError(
+                f"controller {spec!r} is neither one of {', '.join(CONTROLLERS)} nor a run directory with a model.zip"
+            )
+    for d in config.merge or []:
+        if not (Path(d) / "episodes.csv").is_file():
+            raise EvalConfigError(f"--merge {d}: no episodes.csv there")
+    for obs in dict.fromkeys([*config.observers, config.plot_observer]):
+        try:
+            gym.make(ENV_ID, observer=obs, **config.env_kwargs).close()
+        except (ValueError, TypeError) as exc:
+            raise EvalConfigError(str(exc).splitlines()[0]) from None
+
+
 def _merged_rows(dirs: list[Path]) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     seen: set[tuple[str, str, int]] = set()
@@ -399,9 +439,11 @@ __all__ = [
     "DEFAULT_OBSERVERS",
     "DEFAULT_SEED_BASE",
     "EvalConfig",
+    "EvalConfigError",
     "ModelPolicy",
     "RULES",
     "Task",
+    "check_config",
     "controller_label",
     "evaluate",
     "make_controller",

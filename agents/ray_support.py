@@ -5,8 +5,8 @@ from __future__ import annotations
 import os
 from typing import Any
 
-RAY_INSTALL_HINT = "pip install 'uuom-gym[ray]' (from a checkout: pip install -e '.[ray]'), which installs ray>=2.9"
-"""What to install for ``--ray``: the ``[ray]`` extra of pyproject.toml (tests check that the two agree)."""
+RAY_INSTALL_HINT = 'pip install -e ".[ray]"'
+"""What to install for ``--ray`` (from a checkout): the ``[ray]`` extra of pyproject.toml."""
 
 
 class RayUnavailableError(RuntimeError):
@@ -24,7 +24,7 @@ def init_ray() -> Any:
     try:
         import ray
     except ImportError:
-        raise RayUnavailableError(f"--ray needs Ray: {RAY_INSTALL_HINT}") from None
+        raise RayUnavailableError(f"--ray needs Ray, which is not installed: {RAY_INSTALL_HINT}") from None
     ray.init(address=os.environ.get("RAY_ADDRESS"), ignore_reinit_error=True)
     return ray
 

@@ -10,8 +10,11 @@ For every controller x observer, on episodes with seeds ``seed_base .. seed_base
 tracks, loads and conditions for every row): success rate, overspeed trips, violations per km by rule, cost
 rate (mean ``info["cost"]`` per policy step), trip time relative to the oracle controller on the same track (mean
 over tracks both completed), traction energy per t km, mean estimator errors. :func:`evaluate` writes
-``episodes.csv``, ``summary.csv``, ``summary.md`` and the figures (:mod:`agents.evaluation_plots`) into
-``config.out``. Episodes run in parallel with multiprocessing or on Ray (:mod:`agents.ray_support`).
+``episodes.csv``, ``summary.csv`` and ``summary.md`` into ``config.out``, and the figures
+(:mod:`agents.evaluation_plots`) there too or, once, where ``bars_png`` / ``episode_png`` say (``summary.md``
+names them). In ``results/<study>/`` only ``summary.md``, ``summary.csv`` and the figures are committed; the
+per-episode ``episodes.csv`` is git-ignored (rerun the command in ``summary.md`` to regenerate it). Episodes run
+in parallel with multiprocessing or on Ray (:mod:`agents.ray_support`).
 """
 
 from __future__ import annotations
@@ -19,7 +22,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import shutil
 import sys
 import time
 from dataclasses import dataclass, field
@@ -350,7 +352,7 @@ def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
         rows = _merged_rows(config.merge)
         seeds = sorted({int(r["seed"]) for r in rows})
         head = (f"Held-out seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} tracks), {len(rows)} episodes merged from "
-                f"{', '.join(str(d) for d in config.merge)}.\nCommand: `{cmd}`\n\n")
+                f"{', '.join(str(d) for d in config.merge)}.\nCommand: `{cmd}`\n\n{_parts(config.merge)}")
         rec_tasks = [Task(c, "oracle" if split_shield(c)[0] == "oracle" else config.plot_observer, plot_seed, kw, True)
                      for c in config.controllers]
         rec = run_tasks(rec_tasks, min(config.workers, len(rec_tasks)), config.use_ray, progress=False)
@@ -375,13 +377,15 @@ def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
     write_csv(out / "episodes.csv", rows)
     write_csv(out / "summary.csv", summary)
     md = markdown_table(summary)
-    (out / "summary.md").write_text(head + md)
-    plot_bars(summary, out / "bars.png")
-    plot_episode(rec, out / "episode.png")
-    for src, dst in ((out / "bars.png", config.bars_png), (out / "episode.png", config.episode_png)):
-        if dst is not None and src.exists():
-            Path(dst).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy(src, dst)
+    # One copy of each figure: where asked (e.g. docs/img for the README), else beside the table.
+    bars_png = Path(config.bars_png) if config.bars_png is not None else out / "bars.png"
+    episode_png = Path(config.episode_png) if config.episode_png is not None else out / "episode.png"
+    for path in (bars_png, episode_png):
+        path.parent.mkdir(parents=True, exist_ok=True)
+    plot_bars(summary, bars_png)
+    plot_episode(rec, episode_png)
+    figures = [str(p) for p in (bars_png, episode_png) if p.exists()]
+    (out / "summary.md").write_text(head + md + f"\nFigures: {', '.join(figures)}.\n")
     if not config.quiet:
         print(md)
         print(f"{len(rows)} episodes -> {out}")
@@ -421,6 +425,17 @@ def check_config(config: EvalConfig) -> None:
             gym.make(ENV_ID, observer=obs, **config.env_kwargs).close()
         except (ValueError, TypeError) as exc:
             raise EvalConfigError(str(exc).splitlines()[0]) from None
+
+
+def _parts(dirs: list[Path]) -> str:
+    """The head lines (seeds, command) of the merged directories' ``summary.md``: where each row came from."""
+    lines = []
+    for d in dirs:
+        md = Path(d) / "summary.md"
+        if md.exists():
+            head = [ln for ln in md.read_text().splitlines()[:2] if ln.strip()]
+            lines.append(f"- `{d}`: " + " ".join(head))
+    return ("Parts:\n" + "\n".join(lines) + "\n\n") if lines else ""
 
 
 def _merged_rows(dirs: list[Path]) -> list[dict[str, Any]]:

@@ -9,7 +9,7 @@ import numpy as np
 
 from agents.control_input import ControlInput, ControlInputError, info_value
 from agents.controllers.base import SpeedController, _creep_mps, _station_hold, force_to_command
-from agents.speed_profile import SpeedProfile, effective_slope_rad, min_time_profile
+from agents.speed_profile import MinTimeProfile, effective_slope_rad, min_time_profile
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 
@@ -54,7 +54,7 @@ class OracleController(SpeedController):
         self.gain_per_s = gain_per_s
         self.integral_gain_per_s2 = integral_gain_per_s2
         self._integral = 0.0
-        self.profile: SpeedProfile | None = None
+        self.profile: MinTimeProfile | None = None
         self.mass_kg = vehicle.empty_mass_kg
         self.mu = vehicle.running_resistance
         self.track: Any = None
@@ -68,7 +68,7 @@ class OracleController(SpeedController):
         stop_s_m: float | None = None,
         running_resistance: float | None = None,
         adhesion: float | None = None,
-    ) -> SpeedProfile:
+    ) -> MinTimeProfile:
         """Plan the trip (called by :meth:`reset` from the env's truth; usable directly)."""
         self.track = track
         self.mass_kg = float(mass_kg)

@@ -381,6 +381,20 @@ def decode_observation(obs: np.ndarray, vehicle: VehicleParams, track_length_m: 
 _OBS_INDEX = {n: i for i, n in enumerate(OBS_NAMES)}
 
 
+def observation_by_name(obs: np.ndarray) -> dict[str, float]:
+    """The (normalised) entries of an observation vector by name, e.g. ``observation_by_name(obs)["speed"]``.
+
+    Raises
+    ------
+    ValueError
+        If ``obs`` does not hold ``len(OBS_NAMES)`` values.
+    """
+    o = np.asarray(obs, dtype=float).reshape(-1)
+    if o.shape[0] != len(OBS_NAMES):
+        raise ValueError(f"observation must hold {len(OBS_NAMES)} values, got shape {np.shape(obs)}")
+    return dict(zip(OBS_NAMES, o.tolist()))
+
+
 __all__ = [
     "DecodedObservation",
     "OBS_HIGH",
@@ -392,6 +406,7 @@ __all__ = [
     "UnknownObserverError",
     "decode_observation",
     "make_observer",
+    "observation_by_name",
     "observation_space",
     "worst_case_speed_limit_mps",
 ]

@@ -14,6 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from uuom_core.vehicle import VehicleParams
+from uuom_gym.envs.observation import decode_observation
 
 
 class ControlInputError(ValueError):
@@ -97,8 +98,6 @@ def control_input_from_obs(
     speed, estimated mass/slope and their standard deviations, odometry distance to the station. Position is not
     in the observation; it is reported as ``track_length_m - distance_to_go``.
     """
-    from uuom_gym.envs.observation import decode_observation
-
     try:
         d = decode_observation(obs, vehicle, track_length_m)
     except ValueError as exc:

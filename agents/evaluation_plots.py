@@ -7,7 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.evaluation import DEFAULT_OBSERVERS
+from agents.evaluation_table import DEFAULT_OBSERVERS
+
 
 def plot_bars(summary: list[dict[str, Any]], path: Path) -> None:
     """Grouped bars per observer: success rate, cost rate, trip time relative to the oracle."""

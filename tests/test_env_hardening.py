@@ -106,7 +106,7 @@ def test_checkers_still_pass_with_order_enforcement(env_id):
     from gymnasium.utils.env_checker import check_env as gym_check
     from stable_baselines3.common.env_checker import check_env as sb3_check
 
-    env = gym.make(env_id, observer="oracle")
+    env = gym.make(env_id)  # as registered: default observer and config
     gym_check(env.unwrapped, skip_render_check=True)
     sb3_check(env, warn=True)
     env.close()

@@ -5,13 +5,13 @@ See :class:`UUOMTrackEnv` for the full description (CartPole-style), ``docs/env.
 
 from __future__ import annotations
 
-import math
 from typing import Any, Mapping
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from uuom_gym.envs.actions import InvalidActionError, check_action
 from uuom_gym.envs.config import CONFIG_DOCS, REWARD_TERMS, ConfigError, default_config, make_config
 from uuom_gym.envs.observation import (
     OBS_NAMES,
@@ -26,10 +26,6 @@ from uuom_gym.envs.reward import reward_terms, traction_energy_j
 from uuom_gym.envs.safety import SafetyMonitor, SafetyParams
 from uuom_core.limits import speed_limit_mps
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
-
-
-class InvalidActionError(ValueError):
-    """An action that is not one finite real number (a Python/NumPy real scalar or a real array of shape (1,))."""
 
 
 class ResetNeeded(gym.error.ResetNeeded, RuntimeError):
@@ -222,7 +218,7 @@ class UUOMTrackEnv(gym.Env):
             )
         from uuom_gym.envs import _plant_adapter as pa
 
-        command = _check_action(action)
+        command = check_action(action)
         cfg = self.config
         s_start = self.position_m
         log = self.plant.advance(command, self.ticks_per_step)
@@ -406,39 +402,6 @@ def _make_vehicle(spec: Any) -> VehicleParams:
     if isinstance(spec, Mapping):
         return DEFAULT_VEHICLE.with_changes(**dict(spec))
     raise ConfigError(f"config key 'vehicle' must be None, a VehicleParams or a dict of overrides, got {spec!r}")
-
-
-_ACTION_HELP = "action must be one real number: a Python/NumPy int or float, or a real array of shape (1,)"
-
-
-def _check_action(action: Any) -> float:
-    """The action as a float in ``[-1, 1]``; anything but one finite real number raises InvalidActionError.
-
-    Accepted: ``int``/``float`` (not ``bool``), NumPy integer/floating scalars, and real (integer or floating
-    dtype) arrays or sequences of shape ``()`` or ``(1,)``. Rejected with the type named: ``bool``, complex,
-    strings, ``None``, objects, other shapes, NaN/inf.
-    """
-    if isinstance(action, (bool, np.bool_)):
-        raise InvalidActionError(f"{_ACTION_HELP}, got bool {action!r}")
-    if isinstance(action, (int, float, np.integer, np.floating)):
-        x = float(action)
-    else:
-        if action is None or isinstance(action, (str, bytes, complex, np.complexfloating, Mapping)):
-            raise InvalidActionError(f"{_ACTION_HELP}, got {type(action).__name__} {action!r}")
-        try:
-            a = np.asarray(action)
-        except (TypeError, ValueError):
-            raise InvalidActionError(f"{_ACTION_HELP}, got {type(action).__name__} {action!r}") from None
-        if a.dtype.kind not in "iuf":
-            raise InvalidActionError(
-                f"{_ACTION_HELP}, got {type(action).__name__} of dtype {a.dtype} ({action!r})"
-            )
-        if a.shape not in ((), (1,)):
-            raise InvalidActionError(f"action must have shape (1,), got shape {a.shape}")
-        x = float(a.reshape(-1)[0])
-    if not math.isfinite(x):
-        raise InvalidActionError(f"action must be finite, got {type(action).__name__} {x!r}")
-    return min(max(x, -1.0), 1.0)
 
 
 __all__ = ["InvalidActionError", "ResetNeeded", "UUOMTrackEnv"]

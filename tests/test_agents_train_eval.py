@@ -216,3 +216,34 @@ def test_ray_missing_names_the_extra(monkeypatch, tmp_path, capsys):
     assert 'pip install -e ".[ray]"' in err
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
     assert any(req.startswith("ray") for req in extras["ray"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("delay_s", [1.5, 4.0])
+def test_sigkill_leaves_the_previous_checkpoint_intact_and_resume_cleans_up(tmp_path, delay_s):
+    run = tmp_path / "run"
+    cmd = [sys.executable, "-c", "import sys; from agents.cli import train_main; sys.exit(train_main())",
+           *TINY_CLI, "--timesteps", "200000", "--checkpoint-freq", "256", "--no-subproc", "--run-dir", str(run)]
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=dict(os.environ, OMP_NUM_THREADS="1"), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while latest_checkpoint(run / "checkpoints") is None and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.1)
+    time.sleep(delay_s)  # somewhere in a rollout, an update or a checkpoint write
+    proc.kill()
+    proc.wait(timeout=30)
+    cks = list_checkpoints(run / "checkpoints")
+    assert cks, "no complete checkpoint before the kill"
+    for ck in cks:  # every checkpoint that looks complete is complete
+        assert ck.vecnormalize is not None and ck.state().get("num_timesteps") == ck.steps
+    from stable_baselines3 import PPO
+
+    assert PPO.load(cks[-1].model, device="cpu").num_timesteps == cks[-1].steps
+    # what a kill in the middle of a write leaves (made explicit, the kill above may have missed a write)
+    (run / "checkpoints" / ".partial-step_0000999999").mkdir()
+    (run / f".model.{os.getpid()}.tmp.zip").write_bytes(b"half a zip")
+    rc = train_main([*TINY_CLI, "--timesteps", str(cks[-1].steps + 256), "--checkpoint-freq", "0", "--no-subproc",
+                     "--run-dir", str(run), "--resume"])
+    assert rc == 0
+    assert not list(run.rglob(".partial-*")) and not list(run.rglob(".*.tmp*"))
+    assert PPO.load(run / "model.zip", device="cpu").num_timesteps >= cks[-1].steps + 256

@@ -12,9 +12,16 @@ import json
 import os
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from agents.algos import ALGOS
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but an error is one line (``prog: error: ... (see --help)``) and exit status 2."""
+
+    def error(self, message: str) -> NoReturn:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
 def _json_object(text: str) -> dict[str, Any]:
@@ -32,9 +39,9 @@ def train_parser() -> argparse.ArgumentParser:
     """The argument parser of ``uuom-train``."""
     from agents import training
 
-    ap = argparse.ArgumentParser(
+    ap = _Parser(
         prog="uuom-train",
-        description=training.__doc__.split("\n\n")[0],
+        description=training.__doc__.split("\n\n")[0].replace("``", ""),
         epilog="Example: uuom-train --algo ppo --observer dffrls-aekf --timesteps 300000 --seed 0 --n-envs 2",
     )
     ap.add_argument("--algo", choices=ALGOS, default="ppo")
@@ -103,7 +110,7 @@ def evaluate_parser() -> argparse.ArgumentParser:
     """The argument parser of ``uuom-evaluate``."""
     from agents.evaluation import DEFAULT_OBSERVERS, DEFAULT_SEED_BASE
 
-    ap = argparse.ArgumentParser(
+    ap = _Parser(
         prog="uuom-evaluate",
         description="Compare controllers x observers on the same held-out seeded UUOM-Track-v0 tracks.",
         epilog="Example: uuom-evaluate --controllers oracle rule-based runs/ppo_dffrls-aekf_res_shield_s0 "

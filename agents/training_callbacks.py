@@ -75,7 +75,8 @@ class HistoryEvalCallback(EvalCallback):
             ok = super()._on_step()
         finally:
             self.best_model_save_path = save_path
-        tmp = Path(self.log_path + ".npz") if self.log_path is not None else None
+        evaluated = self.eval_freq > 0 and self.n_calls % self.eval_freq == 0
+        tmp = Path(self.log_path + ".npz") if self.log_path is not None and evaluated else None
         if tmp is not None and tmp.exists():
             os.replace(tmp, self._npz_path.with_suffix(".npz"))
         if self.best_mean_reward > best_before and save_path is not None:

@@ -13,14 +13,7 @@ Metrics, files written and the controller specs (``oracle``, ``rule-based``, ``f
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run from a checkout without installing
-    sys.path.insert(0, str(ROOT))
-
-from agents.cli import evaluate_main  # noqa: E402
+from agents.cli import evaluate_main
 
 if __name__ == "__main__":
     raise SystemExit(evaluate_main(prog="python scripts/evaluate.py"))

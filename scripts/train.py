@@ -11,14 +11,7 @@ What a run writes and how the YAML's ``env_wrapper`` sets the default shield/res
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run from a checkout without installing
-    sys.path.insert(0, str(ROOT))
-
-from agents.cli import train_main  # noqa: E402
+from agents.cli import train_main
 
 if __name__ == "__main__":
     raise SystemExit(train_main())

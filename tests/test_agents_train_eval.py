@@ -164,7 +164,7 @@ def test_evaluate_table_on_two_tiny_runs_is_deterministic(tmp_path):
         out = tmp_path / name
         assert evaluate_main(
             ["--controllers", "oracle", "rule-based", "full-throttle+shield", "--observers", "oracle", "none",
-             "--episodes", "2", "--workers", "2", "--env-kwargs", json.dumps(TINY_ENV), "--out", str(out),
+             "--episodes", "1", "--workers", "2", "--env-kwargs", json.dumps(TINY_ENV), "--out", str(out),
              "--quiet"]
         ) == 0
         with (out / "summary.csv").open() as fh:

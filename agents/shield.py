@@ -22,7 +22,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.controllers import ControlInput, GradeCrossCheck, control_input_from_obs, force_to_command
+from agents.control_input import ControlInput, control_input_from_obs
+from agents.controllers.base import force_to_command
+from agents.grade_check import GradeCrossCheck
 from uuom_core.limits import brake_deceleration_mps2, speed_limit_mps
 from uuom_core.vehicle import G_MPS2, VehicleParams
 

@@ -84,8 +84,8 @@ def effective_slope_rad(
 
 
 @dataclass(frozen=True)
-class SpeedProfile:
-    """A speed-vs-position plan on a grid.
+class MinTimeProfile:
+    """A minimum-time speed-vs-position plan on a grid (not the driver knots of :class:`uuom_gym.sim.SpeedProfile`).
 
     Attributes
     ----------
@@ -138,7 +138,7 @@ def min_time_profile(
     running_resistance: float | None = None,
     adhesion: float | None = None,
     limit_fn: Callable[[float, float], float] | None = None,
-) -> SpeedProfile:
+) -> MinTimeProfile:
     """Fastest speed profile from standstill at s = 0 to standstill at ``stop_s_m``.
 
     Parameters
@@ -173,7 +173,7 @@ def min_time_profile(
 
     Returns
     -------
-    SpeedProfile
+    MinTimeProfile
     """
     if track is not None:
         slope_fn = track.slope_at  # type: ignore[assignment]
@@ -246,12 +246,12 @@ def min_time_profile(
     trip = float(dt.sum())
     dv2 = np.gradient(speed**2, s)
     accel = 0.5 * dv2
-    return SpeedProfile(s_m=s, speed_mps=speed, cap_mps=cap, accel_mps2=accel, trip_time_s=trip, feasible=feasible)
+    return MinTimeProfile(s_m=s, speed_mps=speed, cap_mps=cap, accel_mps2=accel, trip_time_s=trip, feasible=feasible)
 
 
 __all__ = [
     "ProfileError",
-    "SpeedProfile",
+    "MinTimeProfile",
     "TrackLike",
     "effective_slope_rad",
     "min_time_profile",

@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     ap.add_argument(
         "--baseline", type=int, default=0, metavar="N",
-        help="instead of timing: run the plain speed controller of render_frame.py on N random tracks "
+        help="instead of timing: run the plain speed controller (agents.controllers.proportional) on N random tracks "
         "(seeds 0..N-1) for each of the observers oracle, dffrls-aekf, none, and print the outcomes",
     )
     args = ap.parse_args(argv)
@@ -148,12 +148,7 @@ def main(argv: list[str] | None = None) -> dict:
 
 def baseline(n_episodes: int, as_json: bool) -> dict:
     """Outcomes of a plain controller (70 % of the estimated limit) per observer: what the estimate is worth."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from render_frame import controller
-
+    from agents.controllers.proportional import proportional_command
     from uuom_gym.envs.track_env import UUOMTrackEnv
 
     out: dict = {}
@@ -164,7 +159,7 @@ def baseline(n_episodes: int, as_json: bool) -> dict:
             obs, info = env.reset(seed=seed)
             ret = 0.0
             while True:
-                a = controller(obs, info["distance_to_go_m"])
+                a = proportional_command(obs, info["distance_to_go_m"])
                 obs, r, term, trunc, info = env.step(np.array([a], np.float32))
                 ret += r
                 if term or trunc:

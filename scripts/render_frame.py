@@ -13,21 +13,12 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import math
 import os
 from pathlib import Path
 
 import numpy as np
 
-
-def controller(obs: np.ndarray, distance_to_go_m: float, speed_frac: float = 0.7) -> float:
-    from uuom_gym.envs.observation import OBS_NAMES
-
-    o = dict(zip(OBS_NAMES, obs.tolist()))
-    target = min(speed_frac * o["est_speed_limit"] * 2.0, math.sqrt(2 * 0.25 * max(distance_to_go_m, 0.0)))
-    a = 3.0 * (target - o["speed"] * 2.0)
-    # ramp traction up slowly (a sudden pull swings the load), brake faster
-    return float(np.clip(a, o["last_command"] - 0.1, o["last_command"] + 0.03))
+from agents.controllers.proportional import proportional_command
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -56,7 +47,7 @@ def main(argv: list[str] | None = None) -> None:
     frame_saved = False
     steepest = float(np.max(np.abs(env.track.slope_rad)))
     while True:
-        a = controller(obs, info["distance_to_go_m"])
+        a = proportional_command(obs, info["distance_to_go_m"])
         obs, r, term, trunc, info = env.step(np.array([a], np.float32))
         rows.append(
             (info["t_s"], info["speed_mps"], info["true_speed_limit_mps"], info["est_speed_limit_mps"],

@@ -5,11 +5,12 @@ Example (one machine, two trainings at a time)::
 
     python scripts/sweep.py --algo ppo --observers dffrls-aekf ekf none --seeds 0 1 2 --timesteps 200000 --jobs 2
 
-Every job is ``scripts/train.py`` with the same arguments plus its ``--observer`` and ``--seed`` (extra
-``scripts/train.py`` options go after ``--``), single-process inside (``--n-envs 1 --no-subproc`` unless given
-after ``--``) so that ``--jobs`` decides the parallelism. An interrupted sweep resumes every run from its last
-checkpoint when rerun. With ``--ray`` the jobs become Ray tasks (``pip install -e .[ray]``; set ``RAY_ADDRESS``
-for a cluster), one CPU each. Then compare them with ``scripts/evaluate.py --controllers runs/...``.
+Every job is ``uuom-train`` (:mod:`agents.cli`) with the same arguments plus its ``--observer`` and ``--seed``
+(extra ``uuom-train`` options go after ``--``), single-process inside (``--n-envs 1 --no-subproc`` unless given
+after ``--``) so that ``--jobs`` decides the parallelism. An interrupted sweep resumes every run that has a
+checkpoint when rerun (``--resume`` is added for those). With ``--ray`` the jobs become Ray tasks
+(``pip install -e ".[ray]"``; set ``RAY_ADDRESS`` for a cluster), one CPU each. Then compare them with
+``uuom-evaluate --controllers runs/...``.
 """
 
 from __future__ import annotations
@@ -25,14 +26,21 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def job_command(algo: str, observer: str, seed: int, timesteps: int | None, extra: list[str]) -> list[str]:
-    """The ``scripts/train.py`` command line of one job."""
-    cmd = [sys.executable, str(ROOT / "scripts" / "train.py"), "--algo", algo, "--observer", observer,
-           "--seed", str(seed), "--no-progress"]
+    """The ``uuom-train`` command line of one job (``--resume`` when its run directory has a checkpoint)."""
+    from agents.checkpoints import latest_checkpoint
+    from agents.cli import train_config, train_parser
+    from agents.training import plan
+
+    args = ["--algo", algo, "--observer", observer, "--seed", str(seed), "--no-progress"]
     if timesteps is not None:
-        cmd += ["--timesteps", str(timesteps)]
+        args += ["--timesteps", str(timesteps)]
     if "--n-envs" not in extra:
-        cmd += ["--n-envs", "1", "--no-subproc"]
-    return cmd + extra
+        args += ["--n-envs", "1", "--no-subproc"]
+    args += extra
+    config = train_config(train_parser().parse_args(args))
+    if not config.resume and not config.fresh and latest_checkpoint(plan(config).run_dir / "checkpoints"):
+        args.append("--resume")
+    return [sys.executable, "-c", "import sys; from agents.cli import train_main; sys.exit(train_main())", *args]
 
 
 def _run(cmd: list[str]) -> int:
@@ -56,11 +64,12 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     cmds = [job_command(args.algo, o, s, args.timesteps, extra) for o in args.observers for s in args.seeds]
     if args.ray:
+        from agents.ray_support import RayUnavailableError, init_ray
+
         try:
-            import ray
-        except ImportError:
-            raise SystemExit("--ray needs Ray: pip install 'ray[default]'") from None
-        ray.init(address=os.environ.get("RAY_ADDRESS"), ignore_reinit_error=True)
+            ray = init_ray()
+        except RayUnavailableError as exc:
+            ap.error(str(exc))
         remote = ray.remote(num_cpus=1)(_run)
         codes = ray.get([remote.remote(c) for c in cmds])
     else:

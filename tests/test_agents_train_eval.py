@@ -1,48 +1,45 @@
-"""scripts/train.py and scripts/evaluate.py end to end on tiny runs (short tracks, few steps)."""
+"""Training and evaluation end to end on tiny runs (short tracks, few steps), through the packages
+(:mod:`agents.training`, :mod:`agents.evaluation`, :mod:`agents.cli`) — never through the scripts."""
 
 from __future__ import annotations
 
 import csv
-import importlib.util
 import json
+import os
+import signal
+import subprocess
 import sys
+import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from agents.checkpoints import latest_checkpoint, list_checkpoints
+from agents.cli import evaluate_main, train_main
+from agents.evaluation import EvalConfig, EvalConfigError, evaluate
+from agents.training import TrainConfig, TrainConfigError, train
+
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def _load(name: str):
-    spec = importlib.util.spec_from_file_location(f"_uuom_{name}", ROOT / "scripts" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod
-    spec.loader.exec_module(mod)
-    return mod
-
-
-train = _load("train")
-evaluate = _load("evaluate")
-
-TINY_ENV = json.dumps({"track_length_m": [50.0, 60.0]})
+TINY_ENV = {"track_length_m": [50.0, 60.0]}
 TINY_HP = ["n_steps=256", "batch_size=64", "n_epochs=2"]
 
 
-def _train(run_dir: Path, steps: int, algo: str = "ppo", extra: list[str] | None = None):
-    args = train.parse_args(
-        [
-            "--algo", algo, "--observer", "oracle", "--timesteps", str(steps), "--seed", "3", "--n-envs", "2",
-            "--run-dir", str(run_dir), "--eval-freq", "0", "--checkpoint-freq", "512", "--no-subproc",
-            "--no-progress", "--env-kwargs", TINY_ENV, "--hyperparams", *TINY_HP, *(extra or []),
-        ]
-    )
-    return train.train(args)
+def _config(run_dir: Path, steps: int, algo: str = "ppo", **kw) -> TrainConfig:
+    base = dict(algo=algo, observer="oracle", timesteps=steps, seed=3, n_envs=2, run_dir=run_dir, eval_freq=0,
+                checkpoint_freq=512, subproc=False, progress=False, env_kwargs=dict(TINY_ENV),
+                hyperparams=list(TINY_HP))
+    base.update(kw)
+    return TrainConfig(**base)
 
 
 def test_training_smoke_saves_reloads_and_evaluates(tmp_path):
-    run = _train(tmp_path / "run", 1024)
+    run = train(_config(tmp_path / "run", 1024))
     assert (run / "model.zip").exists() and (run / "vecnormalize.pkl").exists()
-    assert list((run / "checkpoints").glob("model_*_steps.zip"))
+    cks = list_checkpoints(run / "checkpoints")
+    assert [c.steps for c in cks] == [512, 1024] and cks[-1].vecnormalize is not None
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["shield"] is True and cfg["residual"] == 0.5  # the YAML's env_wrapper is the default set-up
     events = list((run / "tb").rglob("events.out.tfevents*"))
     assert events
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
@@ -52,50 +49,128 @@ def test_training_smoke_saves_reloads_and_evaluates(tmp_path):
     tags = acc.Tags()["scalars"]
     for tag in ("uuom/cost_rate", "uuom/success_rate", "uuom/trip_time_s", "uuom/violations_per_km/speed_limit"):
         assert tag in tags, f"{tag} not logged; have {tags}"
-    out = tmp_path / "eval"
-    summary = evaluate.evaluate(
-        evaluate.parse_args(
-            ["--controllers", "oracle", str(run), "--observers", "oracle", "--episodes", "1", "--workers", "1",
-             "--env-kwargs", TINY_ENV, "--out", str(out), "--quiet"]
-        )
-    )
-    labels = {r["controller"] for r in summary}
-    assert labels == {"oracle", "run"}
+    summary = evaluate(EvalConfig(controllers=["oracle", str(run)], observers=["oracle"], episodes=1, workers=1,
+                                  env_kwargs=dict(TINY_ENV), out=tmp_path / "eval", quiet=True))
+    assert {r["controller"] for r in summary} == {"oracle", "run"}
     model_row = next(r for r in summary if r["controller"] == "run")
     assert model_row["episodes"] == 1 and 0.0 <= model_row["success_rate"] <= 1.0
 
 
-def test_resume_from_checkpoint(tmp_path):
+def test_resume_continues_and_keeps_the_evaluation_history(tmp_path):
     run = tmp_path / "run"
-    _train(run, 1024, algo="ppo-lag")
-    steps = sorted(int(p.stem.split("_")[1]) for p in (run / "checkpoints").glob("model_*_steps.zip"))
-    assert steps[-1] >= 1024
-    # an interrupted run: only the older checkpoint left; rerunning the command continues from it
-    for p in (run / "checkpoints").glob(f"model*_{steps[-1]}_steps.*"):
-        p.unlink()
+    kw = dict(eval_freq=512, eval_episodes=1)
+    train(_config(run, 1024, algo="ppo-lag", **kw))
+    history = np.load(run / "eval" / "evaluations.npz")["timesteps"].tolist()
+    assert history == [512, 1024]
+    best = json.loads((run / "best" / "best.json").read_text())["mean_reward"]
+    # rerunning without --resume must not overwrite the run silently
+    with pytest.raises(TrainConfigError, match="--resume"):
+        train(_config(run, 2048, algo="ppo-lag", **kw))
+    # an interrupted run: only the older checkpoint left; --resume continues from it
+    import shutil
+
+    shutil.rmtree(latest_checkpoint(run / "checkpoints").path)
     (run / "model.zip").unlink()
-    _train(run, 2048, algo="ppo-lag")
+    train(_config(run, 2048, algo="ppo-lag", resume=True, **kw))
     from agents.ppo_lagrangian import PPOLagrangian
 
-    model = PPOLagrangian.load(run / "model.zip", device="cpu")
-    assert model.num_timesteps >= 2048
-    assert max(int(p.stem.split("_")[1]) for p in (run / "checkpoints").glob("model_*_steps.zip")) >= 2048
+    assert PPOLagrangian.load(run / "model.zip", device="cpu").num_timesteps == 2048
+    assert latest_checkpoint(run / "checkpoints").steps == 2048
+    # the history before the checkpoint (512) is kept; 1024 is recomputed after resuming, then 1536 and 2048
+    assert np.load(run / "eval" / "evaluations.npz")["timesteps"].tolist() == [512, 1024, 1536, 2048]
+    assert json.loads((run / "best" / "best.json").read_text())["mean_reward"] >= best
+    with pytest.raises(TrainConfigError, match="different observer"):
+        train(_config(run, 4096, algo="ppo-lag", resume=True, observer="none", **kw))
+
+
+def test_resume_without_a_checkpoint_is_refused(tmp_path):
+    with pytest.raises(TrainConfigError, match="nothing to resume"):
+        train(_config(tmp_path / "run", 512, resume=True))
+
+
+def test_sac_checkpoint_holds_the_replay_buffer(tmp_path):
+    run = train(_config(tmp_path / "run", 600, algo="sac", checkpoint_freq=300,
+                        hyperparams=["learning_starts=100", "batch_size=32", "buffer_size=2000"]))
+    cks = list_checkpoints(run / "checkpoints")
+    assert [c.steps for c in cks] == [300, 600]
+    # only the newest keeps the (large) replay buffer
+    assert cks[-1].replay_buffer is not None and cks[0].replay_buffer is None
+
+
+TINY_CLI = ["--observer", "oracle", "--n-envs", "2", "--eval-freq", "0", "--no-progress",
+            "--env-kwargs", json.dumps(TINY_ENV), "--hyperparams", *TINY_HP]
+
+
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["--timesteps", "0"], "timesteps must be a whole number >= 1, got 0"),
+        (["--timesteps", "-5"], "timesteps must be a whole number >= 1, got -5"),
+        (["--n-envs", "0", "--timesteps", "10"], "n_envs must be a whole number >= 1, got 0"),
+        (["--timesteps", "10", "--hyperparams", "n_steps=abc"], "n_steps must be a number like 1024, got 'abc'"),
+        (["--timesteps", "10", "--hyperparams", "n_stepz=5"], "no hyperparameter 'n_stepz'"),
+        (["--timesteps", "10", "--hyperparams", "n_steps"], "expects key=value"),
+        (["--timesteps", "10", "--observer", "kalman"], "kalman"),
+        (["--timesteps", "10", "--env-kwargs", "{bad"], "not JSON"),
+        (["--timesteps", "10", "--env-kwargs", '{"track_lenght_m": 5}'], "track_lenght_m"),
+        (["--timesteps", "10", "--residual", "-1"], "residual must be 0 (off) or in (0, 2]"),
+        (["--timesteps", "10", "--resume"], "nothing to resume"),
+    ],
+)
+def test_bad_training_input_is_one_line_and_creates_nothing(tmp_path, capsys, args, fragment):
+    run = tmp_path / "run"
+    with pytest.raises(SystemExit) as exc:
+        train_main([*TINY_CLI, "--run-dir", str(run), *args])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert fragment in err[-1], err
+    assert err[-1].startswith("uuom-train: error:")
+    assert "Traceback" not in "\n".join(err)
+    assert not run.exists()
+
+
+def test_sigint_writes_a_checkpoint_exits_130_and_resumes(tmp_path):
+    run = tmp_path / "run"
+    cmd = [sys.executable, "-c", "import sys; from agents.cli import train_main; sys.exit(train_main())",
+           *TINY_CLI, "--timesteps", "200000", "--checkpoint-freq", "0", "--run-dir", str(run)]
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    # subproc workers (the default): Ctrl-C reaches the whole process group, as in a terminal
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    deadline = time.time() + 120
+    while not (run / "tb").exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.2)
+    time.sleep(3.0)  # into the rollouts
+    os.killpg(proc.pid, signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "Error" not in err, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("uuom-train: interrupted at"), err
+    ck = latest_checkpoint(run / "checkpoints")
+    assert ck is not None and ck.steps > 0 and ck.vecnormalize is not None
+    assert not list(run.rglob(".partial-*")) and not list(run.rglob(".*.tmp*"))
+    rc = train_main([*TINY_CLI, "--timesteps", str(ck.steps + 256), "--run-dir", str(run), "--resume",
+                     "--checkpoint-freq", "0"])
+    assert rc == 0
+    from stable_baselines3 import PPO
+
+    assert PPO.load(run / "model.zip", device="cpu").num_timesteps >= ck.steps + 256
 
 
 def test_evaluate_table_on_two_tiny_runs_is_deterministic(tmp_path):
     rows = []
     for name in ("a", "b"):
         out = tmp_path / name
-        evaluate.evaluate(
-            evaluate.parse_args(
-                ["--controllers", "oracle", "rule-based", "full-throttle+shield", "--observers", "oracle", "none",
-                 "--episodes", "2", "--workers", "2", "--env-kwargs", TINY_ENV, "--out", str(out), "--quiet"]
-            )
-        )
+        assert evaluate_main(
+            ["--controllers", "oracle", "rule-based", "full-throttle+shield", "--observers", "oracle", "none",
+             "--episodes", "1", "--workers", "2", "--env-kwargs", json.dumps(TINY_ENV), "--out", str(out),
+             "--quiet"]
+        ) == 0
         with (out / "summary.csv").open() as fh:
             rows.append(list(csv.DictReader(fh)))
         md = (out / "summary.md").read_text()
-        assert "| controller | observer | success |" in md
+        assert "| controller | observer | success |" in md and "Command: `uuom-evaluate --controllers" in md
         assert (out / "bars.png").stat().st_size > 10_000 and (out / "episode.png").stat().st_size > 10_000
     a, b = rows
     assert [(r["controller"], r["observer"]) for r in a] == [
@@ -112,3 +187,63 @@ def test_evaluate_table_on_two_tiny_runs_is_deterministic(tmp_path):
     assert float(oracle["trip_time_vs_oracle"]) == pytest.approx(1.0)
     rule_oracle = next(r for r in a if r["controller"] == "rule-based" and r["observer"] == "oracle")
     assert float(rule_oracle["success_rate"]) == 1.0 and int(rule_oracle["overspeed_trips"]) == 0
+
+
+@pytest.mark.parametrize(
+    "config, fragment",
+    [
+        (dict(controllers=["pid"]), "'pid' is neither"),
+        (dict(observers=["kalman"]), "kalman"),
+        (dict(episodes=0), "episodes must be >= 1"),
+        (dict(merge=[Path("/nonexistent")]), "no episodes.csv"),
+    ],
+)
+def test_bad_evaluation_input_is_named_before_any_episode(tmp_path, config, fragment):
+    with pytest.raises(EvalConfigError, match=fragment):
+        evaluate(EvalConfig(out=tmp_path / "out", quiet=True, **config))
+    assert not (tmp_path / "out").exists()
+
+
+def test_ray_missing_names_the_extra(monkeypatch, tmp_path, capsys):
+    import tomllib
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError, whether installed or not
+    with pytest.raises(SystemExit) as exc:
+        evaluate_main(["--ray", "--controllers", "rule-based", "--observers", "oracle", "--episodes", "1",
+                       "--out", str(tmp_path / "out"), "--quiet"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert 'pip install -e ".[ray]"' in err
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    assert any(req.startswith("ray") for req in extras["ray"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("delay_s", [1.5, 4.0])
+def test_sigkill_leaves_the_previous_checkpoint_intact_and_resume_cleans_up(tmp_path, delay_s):
+    run = tmp_path / "run"
+    cmd = [sys.executable, "-c", "import sys; from agents.cli import train_main; sys.exit(train_main())",
+           *TINY_CLI, "--timesteps", "200000", "--checkpoint-freq", "256", "--no-subproc", "--run-dir", str(run)]
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=dict(os.environ, OMP_NUM_THREADS="1"), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while latest_checkpoint(run / "checkpoints") is None and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.1)
+    time.sleep(delay_s)  # somewhere in a rollout, an update or a checkpoint write
+    proc.kill()
+    proc.wait(timeout=30)
+    cks = list_checkpoints(run / "checkpoints")
+    assert cks, "no complete checkpoint before the kill"
+    for ck in cks:  # every checkpoint that looks complete is complete
+        assert ck.vecnormalize is not None and ck.state().get("num_timesteps") == ck.steps
+    from stable_baselines3 import PPO
+
+    assert PPO.load(cks[-1].model, device="cpu").num_timesteps == cks[-1].steps
+    # what a kill in the middle of a write leaves (made explicit, the kill above may have missed a write)
+    (run / "checkpoints" / ".partial-step_0000999999").mkdir()
+    (run / f".model.{os.getpid()}.tmp.zip").write_bytes(b"half a zip")
+    rc = train_main([*TINY_CLI, "--timesteps", str(cks[-1].steps + 256), "--checkpoint-freq", "0", "--no-subproc",
+                     "--run-dir", str(run), "--resume"])
+    assert rc == 0
+    assert not list(run.rglob(".partial-*")) and not list(run.rglob(".*.tmp*"))
+    assert PPO.load(run / "model.zip", device="cpu").num_timesteps >= cks[-1].steps + 256

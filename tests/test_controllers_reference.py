@@ -115,7 +115,9 @@ def test_observation_decoding_matches_info():
     env = gym.make("UUOM-Track-v0", observer="oracle", **SHORT)
     obs, info = env.reset(seed=3)
     for _ in range(30):
-        obs, _, _, _, info = env.step(np.array([0.4], dtype=np.float32))
+        obs, _, term, trunc, info = env.step(np.array([0.4], dtype=np.float32))
+        if term or trunc:  # open-loop traction may trip; the env refuses steps after the end
+            break
     x = control_input_from_obs(obs, env.unwrapped.vehicle, info["track_length_m"], 0.1)
     y = control_input_from_info(info, 0.1)
     assert x.est_mass_kg == pytest.approx(info["true_mass_kg"], rel=1e-4)

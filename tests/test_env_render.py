@@ -19,7 +19,9 @@ def test_rgb_array_frames_change_with_the_state():
     f0 = env.render()
     assert f0.shape == (180, 320, 3) and f0.dtype == np.uint8
     for _ in range(30):
-        env.step(np.array([0.3], np.float32))
+        *_, term, trunc, _ = env.step(np.array([0.3], np.float32))
+        if term or trunc:  # open-loop traction trips on this track; stepping on would be refused
+            break
     f1 = env.render()
     assert f1.shape == f0.shape and np.any(f0 != f1)
     assert len(np.unique(f1.reshape(-1, 3), axis=0)) > 5  # a picture, not a blank

@@ -40,6 +40,7 @@ estimated.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
@@ -313,7 +314,89 @@ def _forward_fill(x: np.ndarray, first: float) -> np.ndarray:
     return out
 
 
+# --- decoding (inverse of ObservationBuilder.build) ----------------------------------------------------------
+@dataclass(frozen=True)
+class DecodedObservation:
+    """An observation vector turned back into SI units (what an agent can know at one policy step).
+
+    Attributes
+    ----------
+    speed_mps : float
+        Measured ground speed.
+    specific_force_mps2 : float
+        Measured along-track specific force (accelerometer, mean over the last step).
+    last_command : float
+        The action applied during the last step.
+    est_mass_kg, est_mass_std_kg, est_slope_rad, est_slope_std_rad : float
+        The observer's estimates and their standard deviations.
+    est_speed_limit_mps : float
+        ``v_lim`` of the estimated mass and slope.
+    distance_to_go_m : float
+        Odometry distance to the stopping point: the fine channel near the stop, else the coarse one.
+    """
+
+    speed_mps: float
+    specific_force_mps2: float
+    last_command: float
+    est_mass_kg: float
+    est_mass_std_kg: float
+    est_slope_rad: float
+    est_slope_std_rad: float
+    est_speed_limit_mps: float
+    distance_to_go_m: float
+
+
+def decode_observation(obs: np.ndarray, vehicle: VehicleParams, track_length_m: float) -> DecodedObservation:
+    """Invert the normalisation of :meth:`ObservationBuilder.build` (un-normalised observation in, SI out).
+
+    Clipped entries stay clipped: e.g. ``distance_to_go_near`` saturates at +-``NEAR_SCALE_M``, so beyond it the
+    coarse (track-length) channel is used.
+
+    Raises
+    ------
+    ValueError
+        If ``obs`` is not ``len(OBS_NAMES)`` finite values.
+    """
+    o = np.asarray(obs, dtype=float).reshape(-1)
+    if o.shape[0] != len(OBS_NAMES) or not np.all(np.isfinite(o)):
+        raise ValueError(f"observation must be {len(OBS_NAMES)} finite values, got shape {o.shape}")
+    idx = _OBS_INDEX
+    grade = math.radians(vehicle.max_grade_deg)
+    near = o[idx["distance_to_go_near"]]
+    to_go = near * NEAR_SCALE_M if abs(near) < 0.999 else o[idx["distance_to_go"]] * track_length_m
+    v_max = vehicle.max_speed_empty_mps
+    return DecodedObservation(
+        speed_mps=o[idx["speed"]] * v_max,
+        specific_force_mps2=float(o[idx["accel"]] * ACCEL_SCALE_MPS2),
+        last_command=float(o[idx["last_command"]]),
+        est_mass_kg=vehicle.empty_mass_kg + o[idx["est_load"]] * vehicle.rated_load_kg,
+        est_mass_std_kg=o[idx["est_mass_std"]] * vehicle.rated_load_kg,
+        est_slope_rad=o[idx["est_slope"]] * grade,
+        est_slope_std_rad=o[idx["est_slope_std"]] * grade,
+        est_speed_limit_mps=float(o[idx["est_speed_limit"]] * v_max),
+        distance_to_go_m=to_go,
+    )
+
+
+_OBS_INDEX = {n: i for i, n in enumerate(OBS_NAMES)}
+
+
+def observation_by_name(obs: np.ndarray) -> dict[str, float]:
+    """The (normalised) entries of an observation vector by name, e.g. ``observation_by_name(obs)["speed"]``.
+
+    Raises
+    ------
+    ValueError
+        If ``obs`` does not hold ``len(OBS_NAMES)`` values.
+    """
+    o = np.asarray(obs, dtype=float).reshape(-1)
+    if o.shape[0] != len(OBS_NAMES):
+        raise ValueError(f"observation must hold {len(OBS_NAMES)} values, got shape {np.shape(obs)}")
+    return dict(zip(OBS_NAMES, o.tolist()))
+
+
 __all__ = [
+    "DecodedObservation",
     "OBS_HIGH",
     "OBS_LOW",
     "OBS_NAMES",
@@ -321,7 +404,9 @@ __all__ = [
     "Observer",
     "POSITION_MARKER_SPACING_M",
     "UnknownObserverError",
+    "decode_observation",
     "make_observer",
+    "observation_by_name",
     "observation_space",
     "worst_case_speed_limit_mps",
 ]

@@ -5,13 +5,13 @@ See :class:`UUOMTrackEnv` for the full description (CartPole-style), ``docs/env.
 
 from __future__ import annotations
 
-import math
 from typing import Any, Mapping
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from uuom_gym.envs.actions import InvalidActionError, check_action
 from uuom_gym.envs.config import CONFIG_DOCS, REWARD_TERMS, ConfigError, default_config, make_config
 from uuom_gym.envs.observation import (
     OBS_NAMES,
@@ -28,8 +28,12 @@ from uuom_core.limits import speed_limit_mps
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
 
-class InvalidActionError(ValueError):
-    """An action that is not a finite array of shape (1,)."""
+class ResetNeeded(gym.error.ResetNeeded, RuntimeError):
+    """``step()`` before the first ``reset()`` or after the episode ended (Gymnasium's ``OrderEnforcing`` rule).
+
+    Derives from :class:`gymnasium.error.ResetNeeded` (what Gymnasium's order enforcing raises) and from
+    :class:`RuntimeError` (what this env raised before v0 was hardened).
+    """
 
 
 class UUOMTrackEnv(gym.Env):
@@ -145,6 +149,8 @@ class UUOMTrackEnv(gym.Env):
         self._renderer = None
         self.plant = None
         self.track = None
+        self._episode_over = False
+        self._end_reason = ""
 
     # ------------------------------------------------------------------------------------------------------------
     @staticmethod
@@ -193,6 +199,8 @@ class UUOMTrackEnv(gym.Env):
         self.true_limit_mps = float(self.safety.speed_limit(self.true_slope_rad)[0])
         self._last_violations: tuple[str, ...] = ()
         self._last_cost = 0.0
+        self._episode_over = False
+        self._end_reason = ""
         obs = self._observation()
         info = self._info(cost=0.0, costs={r: 0.0 for r in self.violation_counts},
                           violations={r: False for r in self.violation_counts},
@@ -203,10 +211,14 @@ class UUOMTrackEnv(gym.Env):
 
     def step(self, action: Any):
         if self.plant is None:
-            raise RuntimeError("UUOMTrackEnv.step() called before reset()")
+            raise ResetNeeded("UUOMTrackEnv.step() called before reset(); call env.reset() first")
+        if self._episode_over:
+            raise ResetNeeded(
+                f"UUOMTrackEnv.step() called after the episode ended ({self._end_reason}); call env.reset() first"
+            )
         from uuom_gym.envs import _plant_adapter as pa
 
-        command = _check_action(action)
+        command = check_action(action)
         cfg = self.config
         s_start = self.position_m
         log = self.plant.advance(command, self.ticks_per_step)
@@ -267,6 +279,10 @@ class UUOMTrackEnv(gym.Env):
             self.violation_counts[r] += int(hit)
         self._last_violations = tuple(r for r, hit in rep.violations.items() if hit)
         self._last_cost = rep.cost
+        if terminated or truncated:
+            # Stepping on would run physics past an emergency brake or the station; Gymnasium forbids it.
+            self._episode_over = True
+            self._end_reason = f"{'terminated' if terminated else 'truncated'}: {termination}"
         obs = self._observation()
         info = self._info(rep.cost, rep.costs, rep.violations, rewards, termination == "arrived", termination)
         if self.render_mode == "human":
@@ -388,20 +404,4 @@ def _make_vehicle(spec: Any) -> VehicleParams:
     raise ConfigError(f"config key 'vehicle' must be None, a VehicleParams or a dict of overrides, got {spec!r}")
 
 
-def _check_action(action: Any) -> float:
-    try:
-        a = np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InvalidActionError(f"action must be a numeric array of shape (1,), got {action!r}") from None
-    if a.shape != (1,):
-        if a.size == 1 and a.ndim <= 1:
-            a = a.reshape(1)
-        else:
-            raise InvalidActionError(f"action must have shape (1,), got shape {a.shape}")
-    x = float(a[0])
-    if not math.isfinite(x):
-        raise InvalidActionError(f"action must be finite, got {x!r}")
-    return min(max(x, -1.0), 1.0)
-
-
-__all__ = ["InvalidActionError", "UUOMTrackEnv"]
+__all__ = ["InvalidActionError", "ResetNeeded", "UUOMTrackEnv"]

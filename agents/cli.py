@@ -1,0 +1,163 @@
+"""Command-line front ends ``uuom-train`` and ``uuom-evaluate`` (``scripts/train.py`` / ``scripts/evaluate.py``
+call the same functions).
+
+Bad input gives one line ``uuom-train: error: ...`` and exit status 2; Ctrl-C during training writes a checkpoint,
+prints one line and exits with 130 (continue with ``--resume``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+from typing import Any, NoReturn
+
+from agents.algos import ALGOS
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but an error is one line (``prog: error: ... (see --help)``) and exit status 2."""
+
+    def error(self, message: str) -> NoReturn:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def _json_object(text: str) -> dict[str, Any]:
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise argparse.ArgumentTypeError(f"not JSON ({exc.msg} at column {exc.colno}): {text!r}") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f"must be a JSON object like '{{\"track_length_m\": [100, 200]}}', got {text!r}")
+    return value
+
+
+# --- uuom-train ----------------------------------------------------------------------------------------------
+def train_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``uuom-train``."""
+    from agents import training
+
+    ap = _Parser(
+        prog="uuom-train",
+        description=training.__doc__.split("\n\n")[0].replace("``", ""),
+        epilog="Example: uuom-train --algo ppo --observer dffrls-aekf --timesteps 300000 --seed 0 --n-envs 2",
+    )
+    ap.add_argument("--algo", choices=ALGOS, default="ppo")
+    ap.add_argument("--observer", default="dffrls-aekf", help="estimator name, 'oracle' or 'none'")
+    ap.add_argument("--timesteps", type=int, default=None, help="total env steps (default: n_timesteps of the YAML)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--n-envs", type=int, default=None, help="parallel envs (default: n_envs of the YAML)")
+    ap.add_argument("--shield", action=argparse.BooleanOptionalAction, default=None,
+                    help="filter every action through agents.shield (default: the YAML's env_wrapper)")
+    ap.add_argument("--residual", type=float, default=None, metavar="SCALE",
+                    help="residual on the rule-based controller with this authority, 0: the policy alone "
+                    "(default: the YAML's env_wrapper)")
+    ap.add_argument("--log-dir", type=Path, default=Path("runs"))
+    ap.add_argument("--run-dir", type=Path, default=None, help="explicit run directory (overrides --log-dir naming)")
+    ap.add_argument("--conf-file", type=Path, default=None, help="rl-zoo style YAML (default agents/hyperparams/<algo>.yml)")
+    ap.add_argument("--hyperparams", nargs="*", default=[], metavar="KEY=VALUE")
+    ap.add_argument("--env-kwargs", type=_json_object, default={},
+                    help='JSON object of env config, e.g. \'{"track_length_m": [100, 200]}\'')
+    ap.add_argument("--eval-freq", type=int, default=50_000, help="env steps between evaluations (0: none)")
+    ap.add_argument("--eval-episodes", type=int, default=3)
+    ap.add_argument("--checkpoint-freq", type=int, default=25_000, help="env steps between checkpoints (0: none)")
+    ap.add_argument("--no-subproc", action="store_true", help="DummyVecEnv instead of SubprocVecEnv")
+    ap.add_argument("--no-progress", action="store_true", help="no progress bar")
+    group = ap.add_mutually_exclusive_group()
+    group.add_argument("--resume", action="store_true", help="continue from the newest checkpoint of the run directory")
+    group.add_argument("--fresh", action="store_true", help="delete the run directory and start over")
+    ap.add_argument("--device", default="cpu")
+    return ap
+
+
+def train_config(args: argparse.Namespace) -> Any:
+    """A :class:`agents.training.TrainConfig` from parsed ``uuom-train`` arguments."""
+    from agents.training import TrainConfig
+
+    return TrainConfig(
+        algo=args.algo, observer=args.observer, timesteps=args.timesteps, seed=args.seed, n_envs=args.n_envs,
+        shield=args.shield, residual=args.residual, log_dir=args.log_dir, run_dir=args.run_dir,
+        conf_file=args.conf_file, hyperparams=list(args.hyperparams), env_kwargs=args.env_kwargs,
+        eval_freq=args.eval_freq, eval_episodes=args.eval_episodes, checkpoint_freq=args.checkpoint_freq,
+        subproc=not args.no_subproc, progress=not args.no_progress, fresh=args.fresh, resume=args.resume,
+        device=args.device,
+    )
+
+
+def train_main(argv: list[str] | None = None) -> int:
+    """``uuom-train``: 0 when trained, 2 on bad input, 130 when interrupted (a checkpoint was written)."""
+    ap = train_parser()
+    args = ap.parse_args(argv)
+    from agents.training import TrainConfigError, TrainingInterrupted, train
+
+    try:
+        train(train_config(args))
+    except TrainConfigError as exc:
+        ap.error(str(exc))
+    except TrainingInterrupted as exc:
+        print(f"uuom-train: {exc}", file=sys.stderr, flush=True)
+        return 130
+    except KeyboardInterrupt:
+        print("uuom-train: interrupted before training started (nothing written)", file=sys.stderr, flush=True)
+        return 130
+    return 0
+
+
+# --- uuom-evaluate -------------------------------------------------------------------------------------------
+def evaluate_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``uuom-evaluate``."""
+    from agents.evaluation import DEFAULT_OBSERVERS, DEFAULT_SEED_BASE
+
+    ap = _Parser(
+        prog="uuom-evaluate",
+        description="Compare controllers x observers on the same held-out seeded UUOM-Track-v0 tracks.",
+        epilog="Example: uuom-evaluate --controllers oracle rule-based runs/ppo_dffrls-aekf_res_shield_s0 "
+        "--episodes 100 --out results/agents/eval",
+    )
+    ap.add_argument("--controllers", nargs="+", default=["oracle", "rule-based"],
+                    help="oracle, rule-based, full-throttle, a uuom-train run directory; any of them + '+shield'")
+    ap.add_argument("--observers", nargs="+", default=list(DEFAULT_OBSERVERS))
+    ap.add_argument("--episodes", type=int, default=100)
+    ap.add_argument("--seed-base", type=int, default=DEFAULT_SEED_BASE)
+    ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--ray", action="store_true", help="run the episodes on Ray instead of local processes")
+    ap.add_argument("--env-kwargs", type=_json_object, default={})
+    ap.add_argument("--out", type=Path, default=Path("results") / "eval")
+    ap.add_argument("--plot-seed", type=int, default=None, help="episode drawn speed-vs-limit (default: first seed)")
+    ap.add_argument("--plot-observer", default="dffrls-aekf")
+    ap.add_argument("--bars-png", type=Path, default=None, help="also copy the bar chart here (e.g. docs/img/...)")
+    ap.add_argument("--episode-png", type=Path, default=None, help="also copy the episode plot here")
+    ap.add_argument("--merge", nargs="+", type=Path, default=None, metavar="DIR",
+                    help="build the table and the bar chart from the episodes.csv of earlier --out directories "
+                    "(no new episodes, except the one recorded episode per controller for the speed plot)")
+    ap.add_argument("--quiet", action="store_true")
+    return ap
+
+
+def evaluate_main(argv: list[str] | None = None, prog: str = "uuom-evaluate") -> int:
+    """``uuom-evaluate``: 0 when the table is written, 2 on bad input, 130 on Ctrl-C."""
+    ap = evaluate_parser()
+    args = ap.parse_args(argv)
+    from agents.evaluation import EvalConfig, EvalConfigError, evaluate
+    from agents.ray_support import RayUnavailableError
+
+    config = EvalConfig(
+        controllers=list(args.controllers), observers=list(args.observers), episodes=args.episodes,
+        seed_base=args.seed_base, workers=args.workers, use_ray=args.ray, env_kwargs=args.env_kwargs,
+        out=args.out, plot_seed=args.plot_seed, plot_observer=args.plot_observer, bars_png=args.bars_png,
+        episode_png=args.episode_png, merge=args.merge, quiet=args.quiet,
+        command=" ".join([prog, *(sys.argv[1:] if argv is None else argv)]),
+    )
+    try:
+        evaluate(config)
+    except (EvalConfigError, RayUnavailableError) as exc:
+        ap.error(str(exc))
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted (no table written)", file=sys.stderr, flush=True)
+        return 130
+    return 0
+
+
+__all__ = ["evaluate_main", "evaluate_parser", "train_config", "train_main", "train_parser"]

@@ -1,0 +1,108 @@
+"""The controllers' base class and what they share: force-to-command conversion, the station stop."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+from agents.control_input import ControlInput, control_input_from_info, control_input_from_obs
+from uuom_core.vehicle import G_MPS2, VehicleParams
+
+
+def force_to_command(vehicle: VehicleParams, force_n: float, speed_mps: float = 0.0) -> float:
+    """Convert a wanted along-track force to the plant's command.
+
+    Traction: the plant scales the motor torque available at the current speed (torque limit ``F_max r``,
+    power limit ``P / omega``) by the command, so ``cmd = F / min(F_max, P / v)``. Braking: ``cmd = F / F_brake``.
+    """
+    if force_n >= 0.0:
+        available = min(vehicle.max_traction_n, vehicle.motor_power_w / max(abs(speed_mps), 0.05))
+        cmd = force_n / available
+    else:
+        cmd = force_n / vehicle.service_brake_n
+    return float(np.clip(cmd, -1.0, 1.0))
+
+
+def _creep_mps(dist_m: float) -> float:
+    # The braking curve reaches 0 exactly at the stop, which a drive never does: creep the last metres slowly.
+    return 0.08 if dist_m > 0.3 else 0.0
+
+
+STOP_DECEL_MPS2 = 0.3
+"""Deceleration of the final stop: gentle, because a hard stop makes the cars and the load rebound backwards."""
+
+
+def _station_hold(
+    vehicle: VehicleParams, dist_m: float, speed_mps: float, mass_kg: float, slope_rad: float, mu: float
+) -> float | None:
+    """Command at the stop, or None while the train is still short of it.
+
+    Rolling slowly: the force that decelerates at :data:`STOP_DECEL_MPS2` on this grade (traction on a steep
+    up-grade, where gravity alone would stop the train abruptly; brake elsewhere). Standing, or 0.7 m past the
+    aimed stop (the grade was misjudged): full brake.
+    """
+    if dist_m > 0.3:
+        return None
+    if abs(speed_mps) < 0.03:
+        return -1.0
+    if speed_mps < 0.12 and dist_m > -0.7:
+        force = mass_kg * G_MPS2 * (math.sin(slope_rad) + mu * math.cos(slope_rad)) - mass_kg * STOP_DECEL_MPS2
+        return force_to_command(vehicle, force, speed_mps)
+    if dist_m <= -0.7:
+        # The gentle stop did not work (wrong slope estimate, slippery rail): the station is close, brake fully.
+        return -1.0
+    return None
+
+
+class SpeedController:
+    """Base class: ``reset(env, info)`` at the start of an episode, ``act(obs, info) -> ndarray (1,)``."""
+
+    name = "controller"
+
+    def __init__(self, vehicle: VehicleParams, dt_s: float = 0.1) -> None:
+        self.vehicle = vehicle
+        self.dt_s = float(dt_s)
+        self.track_length_m: float | None = None
+
+    def reset(self, env: Any = None, info: Mapping[str, Any] | None = None) -> None:
+        """Start an episode (subclasses read what they may know from the env / the reset info)."""
+        if env is not None:
+            base = getattr(env, "unwrapped", env)
+            cfg = getattr(base, "config", None)
+            if isinstance(cfg, Mapping) and "policy_hz" in cfg:
+                self.dt_s = 1.0 / float(cfg["policy_hz"])
+            track = getattr(base, "track", None)
+            if track is not None:
+                self.track_length_m = float(track.length_m)
+
+    def command(self, x: ControlInput) -> float:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def act(self, obs: Any, info: Mapping[str, Any]) -> np.ndarray:
+        """Action for ``env.step`` from the latest observation (preferred: what an agent sees) or the info."""
+        if obs is not None and self.track_length_m is not None:
+            x = control_input_from_obs(obs, self.vehicle, self.track_length_m, self.dt_s)
+        else:
+            x = control_input_from_info(info, self.dt_s)
+        cmd = self.command(x)
+        if not math.isfinite(cmd):  # defensive: never send NaN to the plant
+            cmd = -1.0
+        return np.array([cmd], dtype=np.float32)
+
+
+class FullThrottleController(SpeedController):
+    """Always asks for full traction: unsafe alone; behind :class:`agents.shield.SafetyShield`
+    (``full-throttle+shield`` in ``scripts/evaluate.py``) it shows what the shield by itself guarantees."""
+
+    name = "full-throttle"
+
+    def act(self, obs: Any, info: Mapping[str, Any]) -> np.ndarray:
+        return np.array([1.0], dtype=np.float32)
+
+    def command(self, x: ControlInput) -> float:
+        return 1.0
+
+
+__all__ = ["FullThrottleController", "STOP_DECEL_MPS2", "SpeedController", "force_to_command"]

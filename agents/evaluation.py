@@ -1,0 +1,375 @@
+"""Evaluate controllers x observers on the same held-out seeded ``UUOM-Track-v0`` tracks.
+
+This table answers "how much does the estimator decide control safety?". Controllers (``spec`` strings):
+``oracle`` (minimum-time controller with perfect knowledge; observer-independent, run once and the reference
+for trip time), ``rule-based``, ``full-throttle``, a run directory of :func:`agents.training.train` (model +
+VecNormalize stats; a run trained with the shield and/or the residual is evaluated the same way), and
+``<any>+shield`` to put the safety shield in front of any controller.
+
+For every controller x observer, on episodes with seeds ``seed_base .. seed_base + episodes - 1`` (the same
+tracks, loads and conditions for every row): success rate, overspeed trips, violations per km by rule, cost
+rate (mean ``info["cost"]`` per policy step), trip time relative to the oracle controller on the same track (mean
+over tracks both completed), traction energy per t km, mean estimator errors. :func:`evaluate` writes
+``episodes.csv``, ``summary.csv`` and ``summary.md`` into ``config.out``, and the figures
+(:mod:`agents.evaluation_plots`) there too or, once, where ``bars_png`` / ``episode_png`` say (``summary.md``
+names them). In ``results/<study>/`` only ``summary.md``, ``summary.csv`` and the figures are committed; the
+per-episode ``episodes.csv`` is git-ignored (rerun the command in ``summary.md`` to regenerate it). Episodes run
+in parallel with multiprocessing or on Ray (:mod:`agents.ray_support`).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.evaluation_table import DEFAULT_OBSERVERS, RULES, markdown_table, read_episodes, summarise, write_csv
+
+ENV_ID = "UUOM-Track-v0"
+DEFAULT_SEED_BASE = 100_000
+"""Held-out tracks: training uses seeds near 0 and its EvalCallback near 1 000 000."""
+
+
+class EvalConfigError(ValueError):
+    """An evaluation input that cannot work (unknown controller or observer, no episodes, missing directory)."""
+
+
+@dataclass(frozen=True)
+class Task:
+    """One episode to run: a controller spec on one observer and one track seed."""
+
+    controller: str
+    observer: str
+    seed: int
+    env_kwargs_json: str = "{}"
+    record: bool = False
+
+
+# --- controllers ---------------------------------------------------------------------------------------------
+def split_shield(spec: str) -> tuple[str, bool]:
+    """``("rule-based", True)`` for ``"rule-based+shield"``."""
+    if spec.endswith("+shield"):
+        return spec[: -len("+shield")], True
+    return spec, False
+
+
+def controller_label(spec: str) -> str:
+    """Short label for tables: run directories by their name."""
+    base, shield = split_shield(spec)
+    label = Path(base).name if ("/" in base or Path(base).is_dir()) else base
+    return label + ("+shield" if shield else "")
+
+
+class ModelPolicy:
+    """A trained SB3 model with its VecNormalize observation statistics, acting on raw observations.
+
+    Parameters
+    ----------
+    run_dir : Path
+        A training run directory (``model.zip``, optional ``vecnormalize.pkl`` and ``config.json``).
+    """
+
+    def __init__(self, run_dir: Path) -> None:
+        import pickle
+
+        import torch
+
+        from agents.algos import algo_class
+
+        torch.set_num_threads(1)  # one episode per process: threads would only fight over the cores
+
+        cfg = json.loads((run_dir / "config.json").read_text()) if (run_dir / "config.json").exists() else {}
+        self.shield = bool(cfg.get("shield", False))
+        self.residual = float(cfg.get("residual", 0.0))
+        algo = cfg.get("algo", "ppo")
+        path = run_dir / "model.zip"
+        vn_path = run_dir / "vecnormalize.pkl"
+        if not path.exists():
+            raise FileNotFoundError(f"{run_dir}: no model.zip (train it with uuom-train first)")
+        self.model = algo_class(algo).load(path, device="cpu")
+        self.vecnorm = None
+        if vn_path.exists():
+            with open(vn_path, "rb") as fh:
+                self.vecnorm = pickle.load(fh)
+            self.vecnorm.training = False
+
+    def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
+        """Deterministic action for one raw observation."""
+        o = self.vecnorm.normalize_obs(obs) if self.vecnorm is not None and self.vecnorm.norm_obs else obs
+        action, _ = self.model.predict(o, deterministic=True)
+        return np.asarray(action, dtype=np.float32).reshape(1)
+
+
+_MODEL_CACHE: dict[str, ModelPolicy] = {}
+
+
+def make_controller(spec: str, vehicle: Any) -> Any:
+    """A reference controller by name, or the (cached per process) trained model of a run directory."""
+    from agents.controllers import CONTROLLERS
+
+    base, _ = split_shield(spec)
+    if base in CONTROLLERS:
+        return CONTROLLERS[base](vehicle)
+    if base not in _MODEL_CACHE:
+        _MODEL_CACHE[base] = ModelPolicy(Path(base))
+    return _MODEL_CACHE[base]
+
+
+def run_episode(task: Task) -> dict[str, Any]:
+    """Run one episode; return its flat summary row (and, if ``task.record``, the per-step trace)."""
+    import gymnasium as gym
+
+    import uuom_gym  # noqa: F401 - registers the env
+    from agents.metrics import EpisodeAccumulator
+    from agents.shield import ShieldWrapper
+
+    env_kwargs = json.loads(task.env_kwargs_json)
+    env = gym.make(ENV_ID, observer=task.observer, **env_kwargs)
+    vehicle = env.unwrapped.vehicle
+    ctrl = make_controller(task.controller, vehicle)
+    shield = split_shield(task.controller)[1] or bool(getattr(ctrl, "shield", False))
+    if shield:
+        env = ShieldWrapper(env)
+    if getattr(ctrl, "residual", 0.0) > 0:
+        from agents.residual import ResidualWrapper
+
+        env = ResidualWrapper(env, scale=ctrl.residual)
+    obs, info = env.reset(seed=task.seed)
+    if hasattr(ctrl, "reset"):
+        ctrl.reset(env, info)
+    acc = EpisodeAccumulator()
+    acc.start(info)
+    keys = ("t_s", "position_m", "speed_mps", "true_limit_mps", "est_limit_mps", "command")
+    trace: dict[str, list[float]] = {k: [] for k in keys}
+    t0 = time.perf_counter()
+    while True:
+        action = ctrl.act(obs, info)
+        obs, _, term, trunc, info = env.step(action)
+        acc.add(info)
+        if task.record:
+            trace["t_s"].append(info["t_s"])
+            trace["position_m"].append(info["position_m"])
+            trace["speed_mps"].append(info["speed_mps"])
+            trace["true_limit_mps"].append(info["true_speed_limit_mps"])
+            trace["est_limit_mps"].append(info["est_speed_limit_mps"])
+            trace["command"].append(float(info.get("shield_command", info["command"])))
+        if term or trunc:
+            break
+    env.close()
+    row = acc.finish(info).flat()
+    row.update(
+        controller=controller_label(task.controller),
+        observer=task.observer,
+        seed=task.seed,
+        wall_s=time.perf_counter() - t0,
+        shield_interventions=int(info.get("shield_interventions", 0)),
+    )
+    if task.record:
+        row["trace"] = trace
+    return row
+
+
+# --- parallel execution --------------------------------------------------------------------------------------
+def _progress(i: int, n: int, show: bool) -> None:
+    if show:
+        print(f"\r{i}/{n} episodes", end="", file=sys.stderr, flush=True)
+
+
+def run_tasks(tasks: list[Task], workers: int, use_ray: bool = False, progress: bool = True) -> list[dict[str, Any]]:
+    """Run the episodes locally (multiprocessing) or on Ray; results in task order."""
+    if use_ray:
+        from agents.ray_support import init_ray
+
+        ray = init_ray()
+        remote = ray.remote(run_episode)
+        return ray.get([remote.remote(t) for t in tasks])
+    out: list[dict[str, Any]] = []
+    if workers <= 1:
+        for i, t in enumerate(tasks):
+            out.append(run_episode(t))
+            _progress(i + 1, len(tasks), progress)
+    else:
+        import multiprocessing as mp
+
+        ctx = mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+        with ctx.Pool(workers) as pool:
+            for i, row in enumerate(pool.imap(run_episode, tasks, chunksize=1)):
+                out.append(row)
+                _progress(i + 1, len(tasks), progress)
+    if progress:
+        print(file=sys.stderr)
+    return out
+
+
+# --- the whole evaluation ------------------------------------------------------------------------------------
+@dataclass
+class EvalConfig:
+    """What :func:`evaluate` runs and where it writes (the fields of ``uuom-evaluate``'s options).
+
+    ``merge``: build the table from the ``episodes.csv`` of earlier ``out`` directories instead of running
+    episodes (only the one recorded episode per controller for the speed plot is run). ``command``: the command
+    line written into ``summary.md`` (``None``: "called from Python").
+    """
+
+    controllers: list[str] = field(default_factory=lambda: ["oracle", "rule-based"])
+    observers: list[str] = field(default_factory=lambda: list(DEFAULT_OBSERVERS))
+    episodes: int = 100
+    seed_base: int = DEFAULT_SEED_BASE
+    workers: int = 1
+    use_ray: bool = False
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    out: Path = Path("results/eval")
+    plot_seed: int | None = None
+    plot_observer: str = "dffrls-aekf"
+    bars_png: Path | None = None
+    episode_png: Path | None = None
+    merge: list[Path] | None = None
+    quiet: bool = False
+    command: str | None = None
+
+
+def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
+    """Run the evaluation; return the summary rows (files written to ``config.out``).
+
+    Raises
+    ------
+    EvalConfigError
+        Bad input (checked before any episode runs).
+    agents.ray_support.RayUnavailableError
+        ``use_ray`` without Ray installed.
+    """
+    from agents.evaluation_plots import plot_bars, plot_episode
+
+    check_config(config)
+    kw = json.dumps(config.env_kwargs, sort_keys=True)
+    seeds = [config.seed_base + i for i in range(config.episodes)]
+    plot_seed = seeds[0] if config.plot_seed is None else config.plot_seed
+    cmd = config.command or "(called from Python)"
+    out = Path(config.out)
+    if config.merge:
+        rows = _merged_rows(config.merge)
+        seeds = sorted({int(r["seed"]) for r in rows})
+        head = (f"Held-out seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} tracks), {len(rows)} episodes merged from "
+                f"{', '.join(str(d) for d in config.merge)}.\nCommand: `{cmd}`\n\n{_parts(config.merge)}")
+        rec_tasks = [Task(c, "oracle" if split_shield(c)[0] == "oracle" else config.plot_observer, plot_seed, kw, True)
+                     for c in config.controllers]
+        rec = run_tasks(rec_tasks, min(config.workers, len(rec_tasks)), config.use_ray, progress=False)
+    else:
+        tasks: list[Task] = []
+        for ctrl in config.controllers:
+            base, _ = split_shield(ctrl)
+            # The oracle controller reads the truth, not the observation: one run per track serves every observer.
+            observers = ["oracle"] if base == "oracle" else config.observers
+            for obs in observers:
+                for s in seeds:
+                    record = s == plot_seed and (obs == config.plot_observer or base == "oracle")
+                    tasks.append(Task(ctrl, obs, s, kw, record=record))
+        t0 = time.time()
+        rows = run_tasks(tasks, config.workers, config.use_ray, progress=not config.quiet)
+        wall = time.time() - t0
+        head = (f"Held-out seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} tracks), {len(rows)} episodes in {wall:.0f} s.\n"
+                f"Command: `{cmd}`\n\n")
+        rec = [r for r in rows if "trace" in r and (r["observer"] == config.plot_observer or r["controller"] == "oracle")]
+    summary = summarise(rows)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "episodes.csv", rows)
+    write_csv(out / "summary.csv", summary)
+    md = markdown_table(summary)
+    # One copy of each figure: where asked (e.g. docs/img for the README), else beside the table.
+    bars_png = Path(config.bars_png) if config.bars_png is not None else out / "bars.png"
+    episode_png = Path(config.episode_png) if config.episode_png is not None else out / "episode.png"
+    for path in (bars_png, episode_png):
+        path.parent.mkdir(parents=True, exist_ok=True)
+    plot_bars(summary, bars_png)
+    plot_episode(rec, episode_png)
+    figures = [str(p) for p in (bars_png, episode_png) if p.exists()]
+    (out / "summary.md").write_text(head + md + f"\nFigures: {', '.join(figures)}.\n")
+    if not config.quiet:
+        print(md)
+        print(f"{len(rows)} episodes -> {out}")
+    return summary
+
+
+def check_config(config: EvalConfig) -> None:
+    """Check every input in this process, before any worker starts.
+
+    Raises
+    ------
+    EvalConfigError
+        The first input that cannot work, named.
+    """
+    import gymnasium as gym
+
+    import uuom_gym  # noqa: F401 - registers the env
+    from agents.controllers import CONTROLLERS
+
+    if config.episodes < 1:
+        raise EvalConfigError(f"episodes must be >= 1, got {config.episodes}")
+    if config.workers < 1:
+        raise EvalConfigError(f"workers must be >= 1, got {config.workers}")
+    if not config.controllers:
+        raise EvalConfigError("no controllers given")
+    for spec in config.controllers:
+        base, _ = split_shield(spec)
+        if base not in CONTROLLERS and not (Path(base) / "model.zip").is_file():
+            raise EvalConfigError(
+                f"controller {spec!r} is neither one of {', '.join(CONTROLLERS)} nor a run directory with a model.zip"
+            )
+    for d in config.merge or []:
+        if not (Path(d) / "episodes.csv").is_file():
+            raise EvalConfigError(f"--merge {d}: no episodes.csv there")
+    for obs in dict.fromkeys([*config.observers, config.plot_observer]):
+        try:
+            gym.make(ENV_ID, observer=obs, **config.env_kwargs).close()
+        except (ValueError, TypeError) as exc:
+            raise EvalConfigError(str(exc).splitlines()[0]) from None
+
+
+def _parts(dirs: list[Path]) -> str:
+    """The head lines (seeds, command) of the merged directories' ``summary.md``: where each row came from."""
+    lines = []
+    for d in dirs:
+        md = Path(d) / "summary.md"
+        if md.exists():
+            head = [ln for ln in md.read_text().splitlines()[:2] if ln.strip()]
+            lines.append(f"- `{d}`: " + " ".join(head))
+    return ("Parts:\n" + "\n".join(lines) + "\n\n") if lines else ""
+
+
+def _merged_rows(dirs: list[Path]) -> list[dict[str, Any]]:
+    rows: list[dict[str, Any]] = []
+    seen: set[tuple[str, str, int]] = set()
+    for d in dirs:
+        for r in read_episodes(Path(d) / "episodes.csv"):
+            key = (r["controller"], r["observer"], int(r["seed"]))
+            if key not in seen:  # the same episode in two directories (e.g. the oracle rows) counts once
+                seen.add(key)
+                rows.append(r)
+    return rows
+
+
+__all__ = [
+    "DEFAULT_OBSERVERS",
+    "DEFAULT_SEED_BASE",
+    "EvalConfig",
+    "EvalConfigError",
+    "ModelPolicy",
+    "RULES",
+    "Task",
+    "check_config",
+    "controller_label",
+    "evaluate",
+    "make_controller",
+    "markdown_table",
+    "read_episodes",
+    "run_episode",
+    "run_tasks",
+    "split_shield",
+    "summarise",
+    "write_csv",
+]

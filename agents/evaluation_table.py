@@ -1,0 +1,111 @@
+"""The evaluation table: per-episode rows -> one summary row per (controller, observer), CSV and Markdown."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+DEFAULT_OBSERVERS = ("oracle", "dffrls-aekf", "rls-ekf", "ekf", "ffrls", "none")
+"""Observers evaluated by default, in table order."""
+RULES = ("speed_limit", "adhesion", "rollback", "sway", "overspeed_trip", "stall")
+
+
+def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[dict[str, Any]]:
+    """One summary row per (controller, observer)."""
+    ref = {r["seed"]: r["trip_time_s"] for r in rows if r["controller"] == oracle_label and r["success"]}
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault((r["controller"], r["observer"]), []).append(r)
+    out = []
+    for (ctrl, obs), rs in groups.items():
+        n = len(rs)
+        km = sum(r["distance_m"] for r in rs) / 1000.0
+        steps = sum(r["steps"] for r in rs)
+        ratios = [r["trip_time_s"] / ref[r["seed"]] for r in rs if r["success"] and r["seed"] in ref]
+        energy = [r["energy_kj_per_tkm"] for r in rs if r["success"] and math.isfinite(r["energy_kj_per_tkm"])]
+        mass_err = [r["mass_err_pct"] for r in rs if math.isfinite(r["mass_err_pct"])]
+        slope_err = [r["slope_err_deg"] for r in rs if math.isfinite(r["slope_err_deg"])]
+        row = {
+            "controller": ctrl,
+            "observer": obs,
+            "episodes": n,
+            "success_rate": sum(bool(r["success"]) for r in rs) / n,
+            "overspeed_trips": sum(bool(r["overspeed_trip"]) for r in rs),
+            "cost_rate": sum(r["cost"] for r in rs) / max(steps, 1),
+            "trip_time_vs_oracle": float(np.mean(ratios)) if ratios else float("nan"),
+            "energy_kj_per_tkm": float(np.mean(energy)) if energy else float("nan"),
+            "mass_err_pct": float(np.mean(mass_err)) if mass_err else float("nan"),
+            "slope_err_deg": float(np.mean(slope_err)) if slope_err else float("nan"),
+            "km": km,
+        }
+        for rule in RULES:
+            row[f"viol_per_km/{rule}"] = sum(r[f"violations/{rule}"] for r in rs) / max(km, 1e-9)
+        out.append(row)
+    order = {o: i for i, o in enumerate(DEFAULT_OBSERVERS)}
+    out.sort(key=lambda r: (r["controller"] != oracle_label, r["controller"], order.get(r["observer"], 99), r["observer"]))
+    return out
+
+
+def write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
+    """Rows as CSV (columns in first-seen order; the recorded traces are left out)."""
+    keys: list[str] = []
+    for r in rows:
+        for k in r:
+            if k not in keys and k != "trace":
+                keys.append(k)
+    with path.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+
+
+def read_episodes(path: Path) -> list[dict[str, Any]]:
+    """Rows of an ``episodes.csv`` with numbers and booleans parsed back."""
+    rows = []
+    with path.open() as fh:
+        for r in csv.DictReader(fh):
+            out: dict[str, Any] = {}
+            for k, v in r.items():
+                if v in ("True", "False"):
+                    out[k] = v == "True"
+                    continue
+                try:
+                    out[k] = int(v)
+                except ValueError:
+                    try:
+                        out[k] = float(v)
+                    except ValueError:
+                        out[k] = v
+            out["controller"] = str(r["controller"])
+            out["observer"] = str(r["observer"])
+            rows.append(out)
+    return rows
+
+
+def markdown_table(summary: list[dict[str, Any]]) -> str:
+    """The Markdown table of the summary (the README shows it)."""
+    head = (
+        "| controller | observer | success | overspeed trips | cost rate | trip time / oracle | energy kJ/(t km) "
+        "| viol/km speed | adhesion | rollback | sway | stall | mass err % | slope err deg |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+    )
+
+    def f(x: float, nd: int = 3) -> str:
+        return "n/a" if not math.isfinite(x) else f"{x:.{nd}f}"
+
+    lines = []
+    for r in summary:
+        lines.append(
+            f"| {r['controller']} | {r['observer']} | {100 * r['success_rate']:.0f} % | {r['overspeed_trips']}/{r['episodes']} "
+            f"| {r['cost_rate']:.2e} | {f(r['trip_time_vs_oracle'], 3)} | {f(r['energy_kj_per_tkm'], 0)} "
+            f"| {f(r['viol_per_km/speed_limit'], 1)} | {f(r['viol_per_km/adhesion'], 1)} | {f(r['viol_per_km/rollback'], 1)} "
+            f"| {f(r['viol_per_km/sway'], 1)} | {f(r['viol_per_km/stall'], 1)} | {f(r['mass_err_pct'], 1)} | {f(r['slope_err_deg'], 2)} |"
+        )
+    return head + "\n".join(lines) + "\n"
+
+
+__all__ = ["DEFAULT_OBSERVERS", "RULES", "markdown_table", "read_episodes", "summarise", "write_csv"]

@@ -1,0 +1,131 @@
+"""rl-baselines3-zoo style hyperparameter files (``agents/hyperparams/<algo>.yml``) as :mod:`agents.training`
+reads them: ``key=value`` overrides checked against the file and the algorithm, the rl-zoo string expressions
+(``normalize``, ``policy_kwargs``), and the ``env_wrapper`` entry that sets the default shield / residual.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from agents.algos import algo_class
+
+ENV_ID = "UUOM-Track-v0"
+HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
+SHIELD_WRAPPER = "agents.shield.ShieldWrapper"
+RESIDUAL_WRAPPER = "agents.residual.ResidualWrapper"
+
+
+class TrainConfigError(ValueError):
+    """A training input that cannot work (bad count, unknown observer, malformed hyperparameter, ...)."""
+
+
+def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[str] | None = None) -> dict[str, Any]:
+    """The rl-zoo-style YAML entry for ``UUOM-Track-v0`` with ``key=value`` overrides applied.
+
+    An override of a key the file has must keep its kind (number, bool, string); a new key must be an argument
+    of the algorithm's constructor.
+
+    Raises
+    ------
+    TrainConfigError
+        Missing file or entry, malformed override, wrong kind or unknown key.
+    """
+    import yaml
+
+    path = Path(conf_file) if conf_file is not None else HYPERPARAMS_DIR / f"{algo}.yml"
+    if not path.is_file():
+        raise TrainConfigError(f"hyperparameter file not found: {path}")
+    try:
+        data = yaml.load(path.read_text(), Loader=yaml.UnsafeLoader)  # rl-zoo files use !!float tags
+    except yaml.YAMLError as exc:
+        raise TrainConfigError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    if not isinstance(data, dict) or ENV_ID not in data:
+        keys = ", ".join(map(str, data)) if isinstance(data, dict) else type(data).__name__
+        raise TrainConfigError(f"{path} has no '{ENV_ID}' entry (has: {keys})")
+    hp = dict(data[ENV_ID])
+    accepted = _constructor_args(algo)
+    for item in overrides or []:
+        if "=" not in item:
+            raise TrainConfigError(f"--hyperparams expects key=value, got {item!r}")
+        key, text = item.split("=", 1)
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            raise TrainConfigError(f"--hyperparams {item!r}: {text!r} is not a YAML value") from None
+        if key in hp:
+            _check_kind(key, hp[key], value, item)
+        elif key not in accepted and key not in ("n_envs", "n_timesteps", "normalize", "policy", "env_wrapper"):
+            raise TrainConfigError(f"--hyperparams {item!r}: {algo} has no hyperparameter {key!r}")
+        hp[key] = value
+    return hp
+
+
+def _constructor_args(algo: str) -> set[str]:
+    import inspect
+
+    cls = algo_class(algo)
+    return {n for c in cls.__mro__ if "__init__" in vars(c) for n in inspect.signature(c.__init__).parameters}
+
+
+def _check_kind(key: str, old: Any, new: Any, item: str) -> None:
+    def kind(v: Any) -> str:
+        if isinstance(v, bool):
+            return "a bool"
+        if isinstance(v, (int, float)):
+            return "a number"
+        return "a string" if isinstance(v, str) else type(v).__name__
+
+    if kind(old) != kind(new):
+        raise TrainConfigError(f"--hyperparams {item!r}: {key} must be {kind(old)} like {old!r}, got {new!r}")
+    if kind(new) == "a number" and not math.isfinite(float(new)):
+        raise TrainConfigError(f"--hyperparams {item!r}: {key} must be finite")
+
+
+def evaluate_str(value: Any, key: str) -> Any:
+    # rl-zoo stores policy_kwargs / normalize as Python expressions in strings.
+    if not isinstance(value, str):
+        return value
+    try:
+        return eval(value, {"__builtins__": {}, "dict": dict, "True": True, "False": False})  # noqa: S307
+    except Exception as exc:  # noqa: BLE001 - any failure is a malformed config entry
+        raise TrainConfigError(f"hyperparameter {key}: cannot read {value!r} ({type(exc).__name__}: {exc})") from None
+
+
+def wrappers_from_env_wrapper(spec: Any) -> tuple[bool, float]:
+    """``(shield, residual_scale)`` from an rl-zoo ``env_wrapper`` entry (``None``: the bare policy).
+
+    Only the two wrappers of this project are understood, innermost first as rl-zoo applies them: the shield,
+    then the residual (which must sit outside the shield: the shield filters the combined command).
+    """
+    if spec is None:
+        return False, 0.0
+    items = spec if isinstance(spec, list) else [spec]
+    shield, residual, names = False, 0.0, []
+    for item in items:
+        name, kwargs = (next(iter(item.items())) if isinstance(item, dict) and len(item) == 1 else (item, {}))
+        names.append(name)
+        if name == SHIELD_WRAPPER and not kwargs:
+            shield = True
+        elif name == RESIDUAL_WRAPPER and set(kwargs or {}) <= {"scale"}:
+            residual = float((kwargs or {}).get("scale", 0.5))
+        else:
+            raise TrainConfigError(
+                f"env_wrapper entry {item!r} is not supported (use {SHIELD_WRAPPER} and/or "
+                f"{RESIDUAL_WRAPPER}: {{scale: x}})"
+            )
+    if names not in ([], [SHIELD_WRAPPER], [RESIDUAL_WRAPPER], [SHIELD_WRAPPER, RESIDUAL_WRAPPER]):
+        raise TrainConfigError(f"env_wrapper {names}: the residual must come after (outside) the shield")
+    return shield, residual
+
+
+__all__ = [
+    "HYPERPARAMS_DIR",
+    "RESIDUAL_WRAPPER",
+    "SHIELD_WRAPPER",
+    "TrainConfigError",
+    "evaluate_str",
+    "load_hyperparams",
+    "wrappers_from_env_wrapper",
+]

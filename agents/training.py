@@ -1,0 +1,366 @@
+"""Train a speed controller on ``UUOM-Track-v0``: PPO, SAC or PPO-Lagrangian, optionally as a residual on the
+rule-based controller and behind the safety shield (``uuom-train`` / ``scripts/train.py`` are front ends).
+
+A run writes ``<log_dir>/<algo>_<observer>[_res][_shield]_s<seed>/`` (or ``run_dir``):
+
+- ``model.zip`` + ``vecnormalize.pkl``: the final policy and its normalisation (written atomically);
+- ``checkpoints/step_<n>/``: complete checkpoints (:mod:`agents.checkpoints`: model, VecNormalize, SAC's replay
+  buffer, the evaluation history); ``resume=True`` continues from the newest, Ctrl-C writes one and stops;
+- ``best/``: the best model by evaluation on held-out seeded tracks (+ VecNormalize, ``best.json``);
+- ``eval/evaluations.npz``, ``tb/`` (TensorBoard with the ``uuom/`` scalars of :mod:`agents.callbacks`),
+  ``config.json`` (what was trained).
+
+Hyperparameters come from ``agents/hyperparams/<algo>.yml`` (rl-baselines3-zoo layout). Its ``env_wrapper``
+entry (shield, residual) is the default set-up, so ``python -m rl_zoo3.train`` and ``uuom-train`` train the same
+thing; ``shield`` / ``residual`` override it. Every input is checked in the parent process before any worker
+starts (:class:`TrainConfigError`, one line).
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import signal
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from agents.algos import ALGOS, algo_class
+from agents.checkpoints import atomic_write, atomic_write_text, clean_partial, latest_checkpoint
+from agents.hyperparameters import TrainConfigError, evaluate_str, load_hyperparams, wrappers_from_env_wrapper
+
+ENV_ID = "UUOM-Track-v0"
+EVAL_SEED_OFFSET = 1_000_000
+"""Evaluation tracks during training are drawn from seeds far from the training seeds (held out)."""
+_ZOO_ONLY_KEYS = ("frame_stack", "callback", "vec_env_wrapper")
+
+
+class TrainingInterrupted(Exception):
+    """Training stopped by SIGINT after writing a checkpoint (``checkpoint`` holds its directory)."""
+
+    def __init__(self, checkpoint: Path, steps: int) -> None:
+        super().__init__(f"interrupted at {steps} steps; checkpoint {checkpoint} (continue with --resume)")
+        self.checkpoint = checkpoint
+        self.steps = steps
+
+
+@dataclass
+class TrainConfig:
+    """One training run (the options of ``uuom-train``).
+
+    ``timesteps`` / ``n_envs`` ``None``: the YAML's ``n_timesteps`` / ``n_envs``. ``shield`` / ``residual``
+    ``None``: the YAML's ``env_wrapper``. ``resume``: continue from the newest checkpoint of the run directory
+    (required when it has one, unless ``fresh`` starts over).
+    """
+
+    algo: str = "ppo"
+    observer: str = "dffrls-aekf"
+    timesteps: int | None = None
+    seed: int = 0
+    n_envs: int | None = None
+    shield: bool | None = None
+    residual: float | None = None
+    log_dir: Path = Path("runs")
+    run_dir: Path | None = None
+    conf_file: Path | None = None
+    hyperparams: list[str] = field(default_factory=list)
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    eval_freq: int = 50_000
+    eval_episodes: int = 3
+    checkpoint_freq: int = 25_000
+    subproc: bool = True
+    progress: bool = True
+    fresh: bool = False
+    resume: bool = False
+    device: str = "cpu"
+
+
+# --- environments --------------------------------------------------------------------------------------------
+def make_env_fn(observer: str, seed: int, shield: bool, env_kwargs: dict[str, Any], residual: float = 0.0):
+    """A picklable env factory for SubprocVecEnv: env -> shield -> residual -> Monitor (normalisation outside)."""
+
+    def _init():
+        import multiprocessing
+
+        import gymnasium as gym
+        from stable_baselines3.common.monitor import Monitor
+
+        import uuom_gym  # noqa: F401 - registers the env
+
+        if multiprocessing.current_process().name != "MainProcess":
+            # Ctrl-C is the parent's to handle (it saves a checkpoint); workers must not die with a traceback.
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+        env = gym.make(ENV_ID, observer=observer, **env_kwargs)
+        if shield:
+            from agents.shield import ShieldWrapper
+
+            env = ShieldWrapper(env)
+        if residual > 0:
+            from agents.residual import ResidualWrapper
+
+            env = ResidualWrapper(env, scale=residual)
+        env = Monitor(env, info_keywords=("is_success",))
+        env.reset(seed=seed)
+        return env
+
+    return _init
+
+
+def make_vec_env(
+    observer: str, seed: int, n_envs: int, shield: bool, env_kwargs: dict[str, Any], subproc: bool,
+    residual: float = 0.0,
+):
+    """``n_envs`` envs with seeds ``seed, seed + 1, ...`` (SubprocVecEnv if ``subproc`` and ``n_envs > 1``)."""
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    fns = [make_env_fn(observer, seed + i, shield, env_kwargs, residual) for i in range(n_envs)]
+    if subproc and n_envs > 1:
+        return SubprocVecEnv(fns, start_method="fork" if sys.platform.startswith("linux") else "spawn")
+    return DummyVecEnv(fns)
+
+
+def run_dir_name(algo: str, observer: str, seed: int, shield: bool, residual: float = 0.0) -> str:
+    """``<algo>_<observer>[_res][_shield]_s<seed>``."""
+    return f"{algo}_{observer}{'_res' if residual > 0 else ''}{'_shield' if shield else ''}_s{seed}"
+
+
+# --- validation ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Plan:
+    """A validated :class:`TrainConfig` with the YAML's defaults filled in."""
+
+    total: int
+    n_envs: int
+    shield: bool
+    residual: float
+    policy: str
+    normalize: dict[str, Any] | None
+    hp: dict[str, Any]
+    run_dir: Path
+
+
+def plan(config: TrainConfig) -> _Plan:
+    """Check every input and fill in the YAML defaults; nothing is created.
+
+    Raises
+    ------
+    TrainConfigError
+        The first input that cannot work, named.
+    """
+    c = config
+    if c.algo not in ALGOS:
+        raise TrainConfigError(f"unknown algo {c.algo!r}; choose one of {', '.join(ALGOS)}")
+    for name in ("timesteps", "n_envs"):
+        v = getattr(c, name)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
+            raise TrainConfigError(f"{name} must be a whole number >= 1, got {v!r}")
+    for name in ("eval_freq", "checkpoint_freq"):
+        if getattr(c, name) < 0:
+            raise TrainConfigError(f"{name} must be >= 0 (0: never), got {getattr(c, name)!r}")
+    if c.eval_episodes < 1:
+        raise TrainConfigError(f"eval_episodes must be >= 1, got {c.eval_episodes!r}")
+    if c.residual is not None and not (c.residual == 0.0 or 0.0 < c.residual <= 2.0):
+        raise TrainConfigError(f"residual must be 0 (off) or in (0, 2], got {c.residual!r}")
+    if c.fresh and c.resume:
+        raise TrainConfigError("fresh and resume exclude each other")
+    if not isinstance(c.env_kwargs, dict):
+        raise TrainConfigError(f"env_kwargs must be a JSON object, got {c.env_kwargs!r}")
+    hp = load_hyperparams(c.algo, c.conf_file, c.hyperparams)
+    n_envs = c.n_envs if c.n_envs is not None else hp.pop("n_envs", 1)
+    total = c.timesteps if c.timesteps is not None else hp.pop("n_timesteps", 100_000)
+    hp.pop("n_envs", None)
+    hp.pop("n_timesteps", None)
+    n_envs, total = _whole(n_envs, "n_envs"), _whole(total, "n_timesteps")
+    yaml_shield, yaml_residual = wrappers_from_env_wrapper(hp.pop("env_wrapper", None))
+    shield = yaml_shield if c.shield is None else bool(c.shield)
+    residual = yaml_residual if c.residual is None else float(c.residual)
+    normalize = evaluate_str(hp.pop("normalize", False), "normalize")
+    if not isinstance(normalize, (bool, dict)):
+        raise TrainConfigError(f"hyperparameter normalize must be a bool or a dict, got {normalize!r}")
+    norm_kwargs = normalize if isinstance(normalize, dict) else ({} if normalize else None)
+    policy = hp.pop("policy", "MlpPolicy")
+    if "policy_kwargs" in hp:
+        hp["policy_kwargs"] = evaluate_str(hp["policy_kwargs"], "policy_kwargs")
+    for key in _ZOO_ONLY_KEYS:
+        hp.pop(key, None)
+    _check_env(c.observer, c.env_kwargs, shield, residual)
+    run_dir = Path(c.run_dir) if c.run_dir is not None else Path(c.log_dir) / run_dir_name(
+        c.algo, c.observer, c.seed, shield, residual)
+    return _Plan(total, n_envs, shield, residual, policy, norm_kwargs, hp, run_dir)
+
+
+def _whole(v: Any, name: str) -> int:
+    if isinstance(v, float) and v.is_integer():
+        v = int(v)
+    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+        raise TrainConfigError(f"{name} must be a whole number >= 1, got {v!r}")
+    return v
+
+
+def _check_env(observer: str, env_kwargs: dict[str, Any], shield: bool, residual: float) -> None:
+    """Build the env once in this process: a bad observer or env option fails here, not in every worker."""
+    try:
+        env = make_env_fn(observer, 0, shield, env_kwargs, residual)()
+    except (ValueError, TypeError, KeyError) as exc:
+        raise TrainConfigError(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
+    env.close()
+
+
+# --- training ------------------------------------------------------------------------------------------------
+def train(config: TrainConfig) -> Path:
+    """Run (or, with ``config.resume``, continue) one training; return the run directory.
+
+    Raises
+    ------
+    TrainConfigError
+        Bad input (checked before anything is created or any worker starts).
+    TrainingInterrupted
+        SIGINT: a checkpoint was written and training stopped.
+    """
+    p = plan(config)
+    run_dir = p.run_dir
+    ckpt_dir = run_dir / "checkpoints"
+    if config.fresh and run_dir.exists():
+        shutil.rmtree(run_dir)
+    clean_partial(run_dir)
+    resume = latest_checkpoint(ckpt_dir)
+    if config.resume and resume is None:
+        raise TrainConfigError(f"nothing to resume: {ckpt_dir} holds no complete checkpoint")
+    if resume is not None and not config.resume:
+        raise TrainConfigError(
+            f"{run_dir} already has a checkpoint at {resume.steps} steps: pass --resume to continue it or --fresh "
+            "to start over"
+        )
+    record = {
+        "algo": config.algo, "observer": config.observer, "seed": config.seed, "n_envs": p.n_envs,
+        "timesteps": p.total, "shield": p.shield, "residual": p.residual, "env_kwargs": config.env_kwargs,
+        "hyperparams": {k: repr(v) for k, v in p.hp.items()}, "normalize": p.normalize,
+    }
+    if resume is not None:
+        _check_same_run(run_dir, record)
+    return _learn(config, p, record, resume)
+
+
+def _check_same_run(run_dir: Path, record: dict[str, Any]) -> None:
+    path = run_dir / "config.json"
+    if not path.exists():
+        return
+    old = json.loads(path.read_text())
+    # The step budget may grow on resume; everything that defines the task and the learner must not change.
+    diff = [k for k in record if k not in ("timesteps",) and k in old and old[k] != json.loads(json.dumps(record[k]))]
+    if diff:
+        k = diff[0]
+        raise TrainConfigError(f"--resume with a different {k} ({old[k]!r} in {path}, now {record[k]!r})")
+
+
+def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any) -> Path:
+    import torch
+    from stable_baselines3.common.callbacks import CallbackList
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from agents.callbacks import UUOMMetricsCallback
+    from agents.training_callbacks import CheckpointEvery, HistoryEvalCallback, StopFlag
+
+    torch.set_num_threads(1)  # the env processes need the cores; small MLPs gain nothing from threads
+    run_dir, ckpt_dir = p.run_dir, p.run_dir / "checkpoints"
+    cls = algo_class(config.algo)
+    venv = make_vec_env(config.observer, config.seed, p.n_envs, p.shield, config.env_kwargs, config.subproc, p.residual)
+    eval_venv = None
+    try:
+        if resume is not None:
+            if p.normalize is not None:
+                if resume.vecnormalize is None:
+                    raise TrainConfigError(f"checkpoint {resume.path} has no vecnormalize.pkl")
+                venv = VecNormalize.load(str(resume.vecnormalize), venv)
+                venv.training = True
+            model = cls.load(resume.model, env=venv, device=config.device)
+            if resume.replay_buffer is not None and hasattr(model, "load_replay_buffer"):
+                model.load_replay_buffer(resume.replay_buffer)
+            print(f"resuming from {resume.path} at {model.num_timesteps} steps", flush=True)
+        else:
+            if p.normalize is not None:
+                venv = VecNormalize(venv, **p.normalize)
+            try:
+                model = cls(p.policy, venv, seed=config.seed, device=config.device, verbose=0, **p.hp)
+            except (TypeError, ValueError, AssertionError) as exc:
+                raise TrainConfigError(f"{config.algo} rejects the hyperparameters: {exc}") from None
+        run_dir.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(run_dir / "config.json", json.dumps(record, indent=2))
+        model.tensorboard_log = str(run_dir / "tb")
+        eval_cb = None
+        if config.eval_freq > 0:
+            eval_venv = make_vec_env(config.observer, config.seed + EVAL_SEED_OFFSET, 1, p.shield, config.env_kwargs,
+                                     False, p.residual)
+            if p.normalize is not None:
+                kw = {k: v for k, v in p.normalize.items() if k not in ("norm_reward", "training")}
+                eval_venv = VecNormalize(eval_venv, training=False, norm_reward=False, **kw)
+            eval_cb = HistoryEvalCallback(
+                eval_venv, n_eval_episodes=config.eval_episodes, eval_freq=max(config.eval_freq // p.n_envs, 1),
+                best_model_save_path=str(run_dir / "best"), log_path=str(run_dir / "eval"),
+                deterministic=True,
+            )
+            if resume is not None:
+                eval_cb.restore(resume.state())
+        is_off_policy = hasattr(model, "replay_buffer")
+        ckpt = CheckpointEvery(max(config.checkpoint_freq // p.n_envs, 1) if config.checkpoint_freq else 0,
+                               ckpt_dir, eval_cb, replay_buffer=is_off_policy)
+        stop = StopFlag()
+        callbacks = [UUOMMetricsCallback(), stop] + ([eval_cb] if eval_cb is not None else [])
+        if config.checkpoint_freq:
+            callbacks.append(ckpt)
+        remaining = p.total - model.num_timesteps
+        t0 = time.time()
+        previous = signal.getsignal(signal.SIGINT)
+
+        def _on_sigint(signum: int, frame: Any) -> None:
+            stop.stop = True
+            signal.signal(signal.SIGINT, previous)  # a second Ctrl-C aborts at once
+
+        signal.signal(signal.SIGINT, _on_sigint)
+        try:
+            if remaining > 0:
+                model.learn(total_timesteps=remaining, callback=CallbackList(callbacks),
+                            progress_bar=config.progress and _has_progress_deps(),
+                            reset_num_timesteps=resume is None, tb_log_name="run")
+        finally:
+            signal.signal(signal.SIGINT, previous)
+        if stop.stop:
+            ckpt.model = model
+            path = ckpt.save()
+            raise TrainingInterrupted(path, int(model.num_timesteps))
+        atomic_write(run_dir / "model.zip", lambda f: model.save(f))
+        if isinstance(model.get_env(), VecNormalize):
+            atomic_write(run_dir / "vecnormalize.pkl", lambda f: model.get_env().save(str(f)))
+        print(f"trained {model.num_timesteps} steps in {time.time() - t0:.0f} s -> {run_dir}", flush=True)
+        return run_dir
+    finally:
+        venv.close()
+        if eval_venv is not None:
+            eval_venv.close()
+
+
+def _has_progress_deps() -> bool:
+    try:
+        import rich  # noqa: F401
+        import tqdm  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+__all__ = [
+    "ENV_ID",
+    "EVAL_SEED_OFFSET",
+    "TrainConfig",
+    "TrainConfigError",
+    "TrainingInterrupted",
+    "load_hyperparams",
+    "make_env_fn",
+    "make_vec_env",
+    "plan",
+    "run_dir_name",
+    "train",
+    "wrappers_from_env_wrapper",
+]

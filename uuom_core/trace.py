@@ -253,7 +253,7 @@ def read_trace_csv(path: str | Path, *, columns: Iterable[str] | None = None) ->
     return Trace(dict(raw.values), source=path_s, warnings=notes)
 
 
-_WRITE_ROWS = 65_536
+_WRITE_ROWS = 8192
 
 
 def write_csv_atomic(path: str | Path, header: Iterable[str], columns: Iterable[np.ndarray]) -> None:

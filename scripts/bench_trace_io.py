@@ -1,7 +1,8 @@
 """Benchmark of trace I/O and ``uuom-estimate`` on a long log: wall time and peak memory (RSS).
 
-Every measurement runs in a fresh Python process that reports its own wall time (imports included) and peak
-resident memory (``resource.getrusage(RUSAGE_SELF).ru_maxrss``), so one cannot inherit another's memory.
+Every measurement runs in a fresh Python process that reports its own wall time and CPU time (user + system, imports
+included; on a shared machine CPU time is the steadier figure) and peak resident memory
+(``resource.getrusage(RUSAGE_SELF).ru_maxrss``), so one cannot inherit another's memory.
 
 ::
 
@@ -26,8 +27,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 _PRELUDE = "import json, resource, sys, time\nt0 = time.perf_counter()\n"
-_REPORT = ("print(json.dumps({'wall_s': time.perf_counter() - t0, "
-           "'peak_rss_mb': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))\n")
+_REPORT = ("ru = resource.getrusage(resource.RUSAGE_SELF)\n"
+           "print(json.dumps({'wall_s': time.perf_counter() - t0, 'cpu_s': ru.ru_utime + ru.ru_stime, "
+           "'peak_rss_mb': ru.ru_maxrss / 1024}))\n")
 
 CASES: dict[str, str] = {
     "read (fast path)": """
@@ -117,12 +119,14 @@ def main(argv: list[str] | None = None) -> int:
         results[name] = measure(code, path, args.rows, out)
         if not args.json:
             r = results[name]
-            print(f"{name:45s} {r['wall_s']:7.2f} s  {r['peak_rss_mb']:7.1f} MB", flush=True)
+            print(f"{name:45s} {r['wall_s']:7.2f} s wall {r['cpu_s']:7.2f} s CPU {r['peak_rss_mb']:7.1f} MB peak",
+                  flush=True)
     size_mb = path.stat().st_size / 1e6
     if args.json:
         print(json.dumps({"rows": args.rows, "file_mb": size_mb, "results": results}, indent=2))
     else:
-        print(f"({args.rows} rows, {size_mb:.1f} MB file {path}; wall time includes Python start-up and imports)")
+        print(f"({args.rows} rows, {size_mb:.1f} MB file {path}; times include Python start-up and imports; "
+              f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs at the end)")
     return 0
 
 

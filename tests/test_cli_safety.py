@@ -128,8 +128,9 @@ def test_unwritable_directory_and_read_only_output(trace: Path, tmp_path: Path) 
 def _start(trace: Path, out: Path, estimator: str) -> subprocess.Popen:
     code = ("import sys\nfrom estimators.cli import main\nprint('ready', flush=True)\n"
             f"sys.exit(main([{str(trace)!r}, '--estimator', {estimator!r}, '--out', {str(out)!r}]))\n")
+    # a background job inherits SIGINT ignored (and Python then keeps it so): give the child a terminal's default
     proc = subprocess.Popen([sys.executable, "-c", code], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                            text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     assert proc.stdout.readline().strip() == "ready"
     return proc
 

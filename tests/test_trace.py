@@ -106,3 +106,23 @@ def test_atomic_write_leaves_nothing_on_failure(tmp_path):
     with pytest.raises(ValueError):
         write_csv_atomic(p, ["a", "b"], [np.zeros(3), np.zeros(4)])
     assert os.listdir(tmp_path) == []
+
+
+def test_interrupted_atomic_write_keeps_the_previous_file(tmp_path):
+    from uuom_core.atomic_write import atomic_text_writer
+
+    p = tmp_path / "a.csv"
+    p.write_text("previous\n")
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_text_writer(p) as fh:
+            fh.write("half a fi")
+            raise KeyboardInterrupt
+    assert p.read_text() == "previous\n" and os.listdir(tmp_path) == ["a.csv"]
+
+
+def test_writer_refuses_infinite_values_before_touching_the_file(tmp_path):
+    p = tmp_path / "a.csv"
+    p.write_text("previous\n")
+    with pytest.raises(ValueError, match="infinite"):
+        write_csv_atomic(p, ["a"], [np.array([1.0, np.inf])])
+    assert p.read_text() == "previous\n" and os.listdir(tmp_path) == ["a.csv"]

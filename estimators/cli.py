@@ -5,10 +5,12 @@
     uuom-estimate TRACE.csv --vehicle VEHICLE.toml --estimator NAME --out ESTIMATES.csv [--settle-s 10] [--json]
     uuom-estimate --list
 
-Writes one row per input row (``t_s, mass_kg, slope_deg, mass_std_kg, slope_std_deg``) atomically, and when the
-trace has truth columns prints per quantity the RMSE and the maximum absolute error over the samples after the
-settle time (mass also in percent). Bad input gives one line ``uuom-estimate: error: FILE:LINE: ...`` on stderr
-and exit status 2; the output file is then not touched.
+Writes one row per input row (``t_s, mass_kg, slope_deg, mass_std_kg, slope_std_deg``; only what the estimator
+estimates) atomically, and when the trace has truth columns prints per quantity the RMSE and the maximum absolute
+error over the samples after the settle time (mass also in percent). Bad input gives one line
+``uuom-estimate: error: FILE:LINE: ...`` on stderr and exit status 2; Ctrl-C one line and status 130. In every case
+the output file is untouched unless the run completed, and the input is never written. ``docs/cli.md`` lists the
+guarantees and every bad input with its message.
 """
 
 from __future__ import annotations
@@ -16,27 +18,58 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
+import signal
 import sys
+import warnings
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
-from uuom_core.trace import Trace, TraceFormatError, read_trace_csv, write_csv_atomic
+from uuom_core.atomic_write import OutputPathError, check_output_path, remove_stale_temps
+from uuom_core.trace import Trace, TraceFormatError, TraceWarning, read_trace_csv, write_csv_atomic
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleFileError, VehicleParams
 
 from .base import EstimateSeries
 from .registry import UnknownEstimatorError, available, get_class
 
-__all__ = ["main", "summarize", "EXIT_BAD_INPUT"]
+__all__ = ["main", "summarize", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "output_columns"]
 
 EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+"""128 + SIGINT, what a shell reports for Ctrl-C (SIGTERM gives 143)."""
 PROG = "uuom-estimate"
+
+_INPUT_COLUMNS = ("motor_speed_radps", "gyro_radps", "accel_normal_mps2", "mass_kg", "slope_deg")
+"""Optional trace columns the estimators or the summary use (others are not read: less memory)."""
+
+_NEEDS: dict[str, tuple[str, ...]] = {
+    "imu-ukf": ("gyro_radps", "accel_normal_mps2"),
+    "aupf": ("motor_speed_radps",),
+}
+"""Trace columns without which an estimator can only report its prior (unless its class says ``needs``)."""
+
+_QUANTITY_COLUMNS: dict[str, tuple[str, ...]] = {
+    "mass": ("mass_kg", "mass_std_kg"),
+    "slope": ("slope_deg", "slope_std_deg"),
+    "mu": ("mu", "mu_std"),
+    "slip": ("slip_ratio", "slip_ratio_std"),
+    "radius": ("drive_radius_m", "drive_radius_m_std"),
+}
 
 
 class _CliError(Exception):
     """A bad-input error already formatted as one line."""
+
+
+class _Terminated(BaseException):
+    """SIGTERM, turned into an exception so that the same clean-up as for Ctrl-C runs."""
+
+
+def _on_sigterm(signum: int, frame: Any) -> None:
+    raise _Terminated()
 
 
 def _usable_estimators() -> tuple[list[str], dict[str, str]]:
@@ -92,16 +125,18 @@ def _error_stats(err: np.ndarray) -> tuple[float, float]:
     return float(np.sqrt(np.mean(err**2))), float(np.max(np.abs(err)))
 
 
-def summarize(trace: Trace, series: EstimateSeries, settle_s: float = 10.0) -> dict[str, Any]:
+def summarize(trace: Trace, series: EstimateSeries, settle_s: float = 10.0,
+              provides: frozenset[str] | set[str] = frozenset({"mass", "slope"})) -> dict[str, Any]:
     """Error summary after ``settle_s`` seconds from the start of the trace, for the truth columns present.
 
-    Samples where the truth is missing (empty cell) are left out. Returns a JSON-ready dict.
+    Only quantities in ``provides`` (what the estimator estimates) are scored. Samples where the truth is missing
+    (empty cell) are left out. Returns a JSON-ready dict.
     """
     t = trace["t_s"]
     after = t >= t[0] + settle_s
     out: dict[str, Any] = {"samples": int(len(trace)), "settle_s": float(settle_s),
                            "samples_after_settle": int(np.count_nonzero(after))}
-    if "mass_kg" in trace:
+    if "mass_kg" in trace and "mass" in provides:
         truth = trace["mass_kg"]
         m = after & np.isfinite(truth)
         if np.any(m):
@@ -113,7 +148,7 @@ def summarize(trace: Trace, series: EstimateSeries, settle_s: float = 10.0) -> d
                            "max_abs_error_pct": mx_pct, "samples": int(np.count_nonzero(m))}
         else:
             out["mass"] = None
-    if "slope_deg" in trace:
+    if "slope_deg" in trace and "slope" in provides:
         truth = trace["slope_deg"]
         m = after & np.isfinite(truth)
         if np.any(m):
@@ -138,8 +173,32 @@ def _format_summary(s: dict[str, Any], name: str, source: str) -> str:
         lines.append("  slope: no truth after the settle time" if m is None else
                      f"  slope: RMSE {m['rmse_deg']:.3f} deg, max |error| {m['max_abs_error_deg']:.3f} deg")
     if "mass" not in s and "slope" not in s:
-        lines.append("  (no truth columns: no error summary)")
+        lines.append("  (no error summary: the trace has no truth for what this estimator estimates)")
     return "\n".join(lines)
+
+
+def output_columns(provides: frozenset[str] | set[str]) -> list[str]:
+    """Output CSV columns for an estimator that estimates ``provides`` (see ``Estimator.provides``).
+
+    A mass/slope estimator gets the contract's ``t_s, mass_kg, slope_deg, mass_std_kg, slope_std_deg`` (a quantity
+    it does not estimate is left out, not written as its prior); one that estimates neither (``aupf``) gets its own
+    quantities instead.
+    """
+    cols = ["t_s"]
+    main = [q for q in ("mass", "slope") if q in provides]
+    if main:
+        cols += [_QUANTITY_COLUMNS[q][0] for q in main] + [_QUANTITY_COLUMNS[q][1] for q in main]
+    else:
+        for q in ("mu", "slip", "radius"):
+            if q in provides:
+                cols += list(_QUANTITY_COLUMNS[q])
+    return cols
+
+
+def _series_column(series: EstimateSeries, name: str) -> np.ndarray:
+    if name in ("t_s", "mass_kg", "slope_deg", "mass_std_kg", "slope_std_deg"):
+        return np.asarray(getattr(series, name))
+    return series.extras[name]
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -147,57 +206,72 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("trace", nargs="?", help="trace CSV (t_s, torque_nm, speed_mps, accel_mps2, ...)")
     p.add_argument("--vehicle", metavar="VEHICLE.toml", help="vehicle file ([vehicle] table); default vehicle if omitted")
     p.add_argument("--estimator", default="dffrls-aekf", metavar="NAME", help="estimator name (default dffrls-aekf)")
-    p.add_argument("--out", metavar="ESTIMATES.csv", help="output CSV, written atomically")
+    p.add_argument("--out", metavar="ESTIMATES.csv",
+                   help="output CSV, written whole or not at all (never a symlink, device or the input)")
     p.add_argument("--settle-s", type=float, default=10.0, help="convergence time excluded from the errors (s)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
-    p.add_argument("--list", action="store_true", help="list the estimators and exit")
+    p.add_argument("--list", action="store_true", help="list the estimators (name and what each estimates) and exit")
     return p
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Console entry point; returns the exit status."""
-    args = _parser().parse_args(argv)
-    if args.list:
-        ok, broken = _usable_estimators()
-        for name in ok:
-            print(name)
-        for name, why in broken.items():
-            print(f"{PROG}: note: {name} unavailable ({why})", file=sys.stderr)
-        return 0
+def _list() -> int:
+    ok, broken = _usable_estimators()
+    for name in ok:
+        provides = sorted(get_class(name).provides)
+        print(f"{name}\t{','.join(provides)}")
+    for name, why in broken.items():
+        print(f"{PROG}: note: {name} unavailable ({why})", file=sys.stderr)
+    return 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    if args.trace is None:
+        raise _CliError("no trace file given (usage: uuom-estimate TRACE.csv --estimator NAME --out OUT.csv)")
+    if not (math.isfinite(args.settle_s) and args.settle_s >= 0):
+        raise _CliError(f"--settle-s must be a finite number >= 0, got {args.settle_s!r}")
     try:
-        if args.trace is None:
-            raise _CliError("no trace file given (usage: uuom-estimate TRACE.csv --estimator NAME --out OUT.csv)")
-        if not (math.isfinite(args.settle_s) and args.settle_s >= 0):
-            raise _CliError(f"--settle-s must be a finite number >= 0, got {args.settle_s!r}")
+        cls = get_class(args.estimator)
+    except UnknownEstimatorError as exc:
+        raise _CliError(f"--estimator: {exc}") from None
+    except Exception as exc:
+        raise _CliError(f"--estimator: {args.estimator!r} cannot be loaded: {exc}") from None
+    provides = frozenset(cls.provides)
+    columns = output_columns(provides)
+    if len(columns) == 1:
+        raise _CliError(f"--estimator: {args.estimator} estimates nothing uuom-estimate can write")
+    vehicle = _load_vehicle(args.vehicle)
+    if args.out is not None:
+        inputs = [args.trace] + ([args.vehicle] if args.vehicle else [])
         try:
-            cls = get_class(args.estimator)
-        except UnknownEstimatorError as exc:
-            raise _CliError(f"--estimator: {exc}") from None
-        except Exception as exc:
-            raise _CliError(f"--estimator: {args.estimator!r} cannot be loaded: {exc}") from None
-        vehicle = _load_vehicle(args.vehicle)
+            check_output_path(args.out, inputs)
+        except OutputPathError as exc:
+            raise _CliError(str(exc)) from None
+        remove_stale_temps(args.out)  # left by a run that was killed (SIGKILL) while writing
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TraceWarning)
         try:
-            trace = read_trace_csv(args.trace)
+            trace = read_trace_csv(args.trace, columns=_INPUT_COLUMNS)
         except TraceFormatError as exc:
             raise _CliError(str(exc)) from None
-        if args.out is not None:
-            out_dir = Path(args.out).parent
-            if str(out_dir) and not out_dir.is_dir():
-                raise _CliError(f"{args.out}: output directory {out_dir} does not exist")
-        series = cls(vehicle).run(trace)
-        if args.out is not None:
-            try:
-                write_csv_atomic(
-                    args.out,
-                    ["t_s", "mass_kg", "slope_deg", "mass_std_kg", "slope_std_deg"],
-                    [series.t_s, series.mass_kg, series.slope_deg, series.mass_std_kg, series.slope_std_deg],
-                )
-            except OSError as exc:
-                raise _CliError(f"{args.out}: cannot write: {exc.strerror or exc}") from None
-    except _CliError as exc:
-        print(f"{PROG}: error: {exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    summary = summarize(trace, series, args.settle_s)
+    for w in caught:
+        print(f"{PROG}: warning: {w.message}", file=sys.stderr)
+    needs = tuple(getattr(cls, "needs", _NEEDS.get(args.estimator, ())))
+    lacking = [c for c in needs if c not in trace or not np.isfinite(trace[c]).any()]
+    if lacking:
+        raise _CliError(f"{args.trace}:1: --estimator {args.estimator} needs column(s) {', '.join(lacking)}, "
+                        f"which the trace lacks (or has no values in)")
+    if not {"mass", "slope"} <= provides:
+        print(f"{PROG}: note: {args.estimator} estimates {', '.join(sorted(provides))}; "
+              f"writing {', '.join(columns)}", file=sys.stderr)
+    series = cls(vehicle).run(trace)
+    if args.out is not None:
+        try:
+            write_csv_atomic(args.out, columns, [_series_column(series, c) for c in columns])
+        except OSError as exc:
+            raise _CliError(f"{args.out}: cannot write: {exc.strerror or exc}") from None
+        except ValueError as exc:  # an estimator that output inf: a bug, but the old file stays
+            raise _CliError(f"{args.out}: not written: {exc}") from None
+    summary = summarize(trace, series, args.settle_s, provides)
     summary["estimator"] = args.estimator
     summary["trace"] = str(args.trace)
     if args.json:
@@ -205,6 +279,41 @@ def main(argv: Sequence[str] | None = None) -> int:
     else:
         print(_format_summary(summary, args.estimator, str(args.trace)))
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Console entry point; returns the exit status.
+
+    Exit status: 0 done, 2 bad input (one line on stderr, output untouched), 130 interrupted by SIGINT and 143 by
+    SIGTERM (one line on stderr, output untouched, no temporary file left).
+    """
+    args = _parser().parse_args(argv)
+    if args.list:
+        return _list()
+    previous = None
+    try:
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:
+        pass  # not the main thread: leave SIGTERM alone
+    try:
+        return _run(args)
+    except _CliError as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except (KeyboardInterrupt, _Terminated) as exc:
+        kept = ""
+        if args.out is not None:
+            kept = f"; {args.out} " + ("not changed" if os.path.lexists(args.out) else "not written")
+        print(f"{PROG}: interrupted{kept}", file=sys.stderr)
+        return 143 if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
+    except BrokenPipeError:
+        # stdout closed early (`uuom-estimate ... | head`): the output file is already complete
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -180,3 +180,77 @@ def test_console_script_exists() -> None:
 
     eps = [e for e in md.entry_points(group="console_scripts") if e.name == "uuom-estimate"]
     assert eps and eps[0].value == "estimators.cli:main"
+
+
+# --- real-world files: one line each, or a warning with the count ---------------------------------------------
+
+def _rows(n: int, dt: float = 0.005, t0: float = 0.0) -> str:
+    return "".join(f"{t0 + i * dt!r},1200,{1.0 + 0.001 * i!r},0.3,26000,0\n" for i in range(n))
+
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        (HEADER.replace(",", ";") + "\n" + _rows(3).replace(",", ";"), ":1: missing required column(s)"),
+        (HEADER + "\n" + _rows(30, dt=5.0), "milliseconds"),
+        (HEADER + "\n" + _rows(5) + "0.03,1200,1e300,0.3,26000,0\n", ":7: column 'speed_mps': 1e+300 is outside"),
+        (HEADER + "\n" + _rows(5) + _rows(5, t0=1e9), ":7: column 't_s': time jumps by"),
+    ],
+)
+def test_real_world_bad_traces(tmp_path: Path, capsys, text: str, expected: str) -> None:
+    p = _write(tmp_path, "bad.csv", text)
+    out = tmp_path / "out.csv"
+    out.write_text("previous")
+    msg = _bad(capsys, str(p), "--out", str(out))
+    assert expected in msg and str(p) in msg
+    assert out.read_text() == "previous"
+    if "';'" in text or ";" in text.splitlines()[0]:
+        assert "';'-separated" in msg
+
+
+def test_excel_bom_trace_is_read(tmp_path: Path, capsys) -> None:
+    p = tmp_path / "excel.csv"
+    p.write_bytes(b"\xef\xbb\xbf" + (HEADER + "\n" + _rows(20)).encode())
+    rc, out, err = _run(capsys, str(p), "--estimator", "rls", "--json")
+    assert rc == 0, err
+    assert json.loads(out)["samples"] == 20
+
+
+def test_warnings_go_to_stderr_with_counts_and_the_run_completes(tmp_path: Path, capsys) -> None:
+    rows = _rows(200).splitlines()
+    rows = [r if i % 20 == 0 else ",".join(r.split(",")[:2] + [""] + r.split(",")[3:])  # speed 95 % empty
+            for i, r in enumerate(rows)]
+    p = _write(tmp_path, "sparse.csv", HEADER + "\n" + "\n".join(rows) + "\n0.999,1200\n")
+    out = tmp_path / "o.csv"
+    rc, _, err = _run(capsys, str(p), "--estimator", "rls", "--out", str(out))
+    assert rc == 0
+    lines = err.strip().splitlines()
+    assert any("warning:" in x and "'speed_mps': empty in 95." in x for x in lines), err
+    assert any("warning:" in x and ":202: 1 row(s) shorter than the header" in x for x in lines), err
+    assert len(out.read_text().splitlines()) == 202
+
+
+def test_list_says_what_each_estimator_estimates(capsys) -> None:
+    rc, out, _ = _run(capsys, "--list")
+    rows = dict(line.split("\t") for line in out.strip().splitlines())
+    assert rows["dffrls-aekf"] == "mass,slope" and rows["imu-ukf"] == "slope" and "slip" in rows["aupf"]
+
+
+def test_estimator_that_does_not_estimate_mass_writes_only_its_own_columns(tmp_path: Path, capsys) -> None:
+    tr = synthetic_trace("section1", seed=2, duration_s=5.0)
+    tr.columns["motor_speed_radps"] = tr["speed_mps"] / 0.17
+    p = tmp_path / "m.csv"
+    write_trace_csv(tr, p)
+    out = tmp_path / "o.csv"
+    rc, stdout, err = _run(capsys, str(p), "--estimator", "aupf", "--out", str(out), "--json")
+    assert rc == 0, err
+    assert out.read_text().splitlines()[0] == "t_s,slip_ratio,slip_ratio_std,drive_radius_m,drive_radius_m_std"
+    s = json.loads(stdout)
+    assert "mass" not in s and "slope" not in s  # the prior is not scored as an estimate
+    assert "note: aupf estimates" in err
+
+
+def test_estimator_without_its_input_columns_is_refused(good_trace: Path, tmp_path: Path, capsys) -> None:
+    msg = _bad(capsys, str(good_trace), "--estimator", "imu-ukf", "--out", str(tmp_path / "o.csv"))
+    assert "imu-ukf needs column(s) gyro_radps" in msg
+    assert not (tmp_path / "o.csv").exists()

@@ -8,7 +8,14 @@ import os
 import numpy as np
 import pytest
 
-from uuom_core.trace import Trace, TraceFormatError, read_trace_csv, write_csv_atomic, write_trace_csv
+from uuom_core.trace import (
+    Trace,
+    TraceFormatError,
+    TraceWarning,
+    read_trace_csv,
+    write_csv_atomic,
+    write_trace_csv,
+)
 
 
 def make_trace(n: int = 50) -> Trace:
@@ -38,10 +45,12 @@ def test_roundtrip_is_exact_with_missing_samples(tmp_path):
     assert [f for f in os.listdir(tmp_path) if f.endswith(".tmp")] == []
 
 
-def test_unknown_columns_are_ignored_and_short_rows_padded(tmp_path):
+def test_unknown_columns_are_ignored_and_short_rows_padded_with_a_warning(tmp_path):
     p = tmp_path / "x.csv"
     p.write_text("t_s,torque_nm,speed_mps,accel_mps2,whatever\n0,1,2,3,zz\n0.1,1,2\n")
-    tr = read_trace_csv(p)
+    with pytest.warns(TraceWarning, match=r"x.csv:3: 1 row\(s\) shorter than the header"):
+        tr = read_trace_csv(p)
+    assert len(tr.warnings) == 1
     assert "whatever" not in tr and math.isnan(tr["accel_mps2"][1])
     assert not tr.has_truth
 
@@ -75,7 +84,13 @@ def test_missing_and_binary_files(tmp_path):
         read_trace_csv(tmp_path / "nope.csv")
     p = tmp_path / "bin.csv"
     p.write_bytes(b"\xff\xfe\x00\x01garbage")
-    with pytest.raises(TraceFormatError, match="not a CSV text file"):
+    with pytest.raises(TraceFormatError, match="UTF-16 text, not a UTF-8 CSV text file"):
+        read_trace_csv(p)
+    p.write_bytes(b"t_s,torque\xe9\n")
+    with pytest.raises(TraceFormatError, match=r":1: not a UTF-8 CSV text file"):
+        read_trace_csv(p)
+    p.write_bytes(b"t_s,torque_nm,speed_mps,accel_mps2\n0,1,2,3\n0.005,1,\xe9,3\n")
+    with pytest.raises(TraceFormatError, match=r":3: not a UTF-8 CSV text file"):
         read_trace_csv(p)
 
 
@@ -91,3 +106,23 @@ def test_atomic_write_leaves_nothing_on_failure(tmp_path):
     with pytest.raises(ValueError):
         write_csv_atomic(p, ["a", "b"], [np.zeros(3), np.zeros(4)])
     assert os.listdir(tmp_path) == []
+
+
+def test_interrupted_atomic_write_keeps_the_previous_file(tmp_path):
+    from uuom_core.atomic_write import atomic_text_writer
+
+    p = tmp_path / "a.csv"
+    p.write_text("previous\n")
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_text_writer(p) as fh:
+            fh.write("half a fi")
+            raise KeyboardInterrupt
+    assert p.read_text() == "previous\n" and os.listdir(tmp_path) == ["a.csv"]
+
+
+def test_writer_refuses_infinite_values_before_touching_the_file(tmp_path):
+    p = tmp_path / "a.csv"
+    p.write_text("previous\n")
+    with pytest.raises(ValueError, match="infinite"):
+        write_csv_atomic(p, ["a"], [np.array([1.0, np.inf])])
+    assert p.read_text() == "previous\n" and os.listdir(tmp_path) == ["a.csv"]

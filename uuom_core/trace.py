@@ -1,21 +1,26 @@
 """Recorded traces: the CSV contract of ``shared/spec/trace-format.md``.
 
 A :class:`Trace` is a set of equally long float columns, one row per sensor sample. Empty cells are missing samples
-and become ``NaN`` in memory; literal ``nan``/``inf`` text in a file is an error (a logger that wrote it is broken).
-Writing is atomic: the file appears whole or not at all.
+and become ``NaN`` in memory; literal ``nan``/``inf`` text in a file is an error (a logger that wrote it is broken),
+and so are numbers no sensor gives (:data:`PLAUSIBLE_ABS_MAX`) and a time column in other units than seconds.
+Parsing is in :mod:`uuom_core.trace_csv` (a fast columnar path, an exact fallback); writing is atomic
+(:mod:`uuom_core.atomic_write`): the file appears whole or not at all.
 """
 
 from __future__ import annotations
 
-import csv
 import math
 import os
-import tempfile
+import stat
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Mapping
 
 import numpy as np
+
+from uuom_core.atomic_write import atomic_text_writer
+from uuom_core.trace_csv import RawColumns, TraceFormatError, TraceWarning, parse_exact, parse_fast, read_header
 
 REQUIRED_COLUMNS: tuple[str, ...] = ("t_s", "torque_nm", "speed_mps", "accel_mps2")
 """Columns every trace must have."""
@@ -37,10 +42,6 @@ EXTRA_COLUMNS: tuple[str, ...] = (
 TRUTH_COLUMNS: tuple[str, ...] = ("mass_kg", "slope_deg")
 
 
-class TraceFormatError(ValueError):
-    """A trace file that breaks the contract. The message names the file, the line and the column."""
-
-
 @dataclass
 class Trace:
     """Sensor samples (and, where known, truth) as float64 columns of equal length.
@@ -51,11 +52,16 @@ class Trace:
         Must contain :data:`REQUIRED_COLUMNS`. Missing samples are ``NaN``.
     source : str, optional
         Where the trace came from (file path or a description), used in messages.
+    meta : dict of str to str, optional
+        Free-form annotations.
+    warnings : list of str, optional
+        What the reader found legal but suspicious (one line each).
     """
 
     columns: dict[str, np.ndarray]
     source: str = "<memory>"
     meta: dict[str, str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self.columns = {k: np.asarray(v, dtype=np.float64) for k, v in self.columns.items()}
@@ -88,110 +94,191 @@ class Trace:
         return float(t[-1] - t[0]) if len(t) > 1 else 0.0
 
 
-def _parse_cell(text: str, path: str, line: int, column: str) -> float:
-    text = text.strip()
-    if text == "":
-        return math.nan
-    try:
-        value = float(text)
-    except ValueError:
-        raise TraceFormatError(f"{path}:{line}: column '{column}': not a number: {text!r}") from None
-    if not math.isfinite(value):
-        raise TraceFormatError(f"{path}:{line}: column '{column}': value must be finite, got {text!r}")
-    return value
+PLAUSIBLE_ABS_MAX: dict[str, float] = {
+    "t_s": 1e10,  # Unix time in seconds is 1.7e9; milliseconds are caught by the sample-interval check
+    "torque_nm": 1e7,
+    "speed_mps": 1e3,
+    "accel_mps2": 1e4,
+    "motor_speed_radps": 1e5,
+    "mass_kg": 1e8,
+    "slope_deg": 90.0,
+    "gyro_radps": 1e3,
+    "accel_normal_mps2": 1e4,
+    "slip_ratio": 1e3,
+    "drive_radius_m": 1e2,
+    "true_speed_mps": 1e3,
+    "sway_rad": 1e2,
+    "position_m": 1e9,
+}
+"""Largest magnitude each column may take. Far beyond any monorail (a sensor glitch such as ``1e300`` is an
+error, not a sample): their job is to keep absurd numbers away from the estimators, not to judge the physics."""
+
+SAMPLE_INTERVAL_RANGE_S: tuple[float, float] = (1e-3, 1.0)
+"""The median sample interval must lie in this range (1 kHz to 1 Hz); outside it the time column is in other
+units (milliseconds) or the file is not a sensor log."""
+
+DROPOUT_WARN_S = 1.0
+"""Time steps longer than this are reported as dropouts (a warning)."""
+
+MAX_GAP_S = 86_400.0
+"""A time step longer than this (a day) is an error: two logs joined, or a broken clock."""
+
+SPARSE_WARN_FRACTION = 0.5
+"""A required column empty in more than this fraction of rows gets a warning."""
 
 
-def read_trace_csv(path: str | Path) -> Trace:
+def _check_columns(raw: RawColumns, path: str) -> list[str]:
+    """Check what the parsed numbers mean; raise :class:`TraceFormatError` or return warning lines."""
+    cols = raw.values
+    t = cols["t_s"]
+    n = len(t)
+    if n == 0:
+        raise TraceFormatError(f"{path}:2: empty file (header but no samples)")
+    for name, v in cols.items():
+        bad = np.flatnonzero(np.isinf(v))
+        if bad.size:
+            raise TraceFormatError(
+                f"{path}:{raw.line_of(bad[0])}: column '{name}': value must be finite, "
+                f"got {float(v[bad[0]])!r}"
+            )
+    missing_t = np.flatnonzero(np.isnan(t))
+    if missing_t.size:
+        raise TraceFormatError(f"{path}:{raw.line_of(missing_t[0])}: column 't_s': time is empty")
+    for name, v in cols.items():
+        limit = PLAUSIBLE_ABS_MAX.get(name, math.inf)
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(np.abs(v) > limit)
+        if bad.size:
+            i = bad[0]
+            raise TraceFormatError(
+                f"{path}:{raw.line_of(i)}: column '{name}': {float(v[i])!r} is outside the plausible range "
+                f"[-{limit:g}, {limit:g}]" + (f" ({bad.size} such rows)" if bad.size > 1 else "")
+            )
+    dt = np.diff(t)
+    back = np.flatnonzero(dt <= 0.0)
+    if back.size:
+        i = back[0] + 1
+        raise TraceFormatError(
+            f"{path}:{raw.line_of(i)}: column 't_s': time not strictly increasing "
+            f"({float(t[i])!r} after {float(t[i - 1])!r})"
+        )
+    warnings_out: list[str] = []
+    if n >= 2:
+        med = float(np.median(dt))
+        lo, hi = SAMPLE_INTERVAL_RANGE_S
+        if not lo <= med <= hi:
+            hint = " (time in milliseconds? the column must be in seconds)" if 1.0 < med <= 1000.0 else ""
+            raise TraceFormatError(
+                f"{path}:{raw.line_of(1)}: column 't_s': median sample interval {med:g} s is outside "
+                f"{lo:g}-{hi:g} s{hint}"
+            )
+        huge = np.flatnonzero(dt > MAX_GAP_S)
+        if huge.size:
+            i = huge[0] + 1
+            raise TraceFormatError(
+                f"{path}:{raw.line_of(i)}: column 't_s': time jumps by {dt[i - 1]:g} s (more than a day) "
+                f"after line {raw.line_of(i - 1)}: two logs joined? split the file there"
+            )
+        gaps = np.flatnonzero(dt > DROPOUT_WARN_S)
+        if gaps.size:
+            j = gaps[np.argmax(dt[gaps])]
+            warnings_out.append(
+                f"{path}: column 't_s': {gaps.size} dropout(s) longer than {DROPOUT_WARN_S:g} s "
+                f"(longest {dt[j]:g} s before line {raw.line_of(j + 1)})"
+            )
+    for name in REQUIRED_COLUMNS[1:]:
+        empty = int(np.count_nonzero(np.isnan(cols[name])))
+        if empty == n:
+            raise TraceFormatError(f"{path}:2: column '{name}': no values (every cell is empty)")
+        if empty > SPARSE_WARN_FRACTION * n:
+            warnings_out.append(
+                f"{path}: column '{name}': empty in {100.0 * empty / n:.1f} % of rows ({empty} of {n})"
+            )
+    if raw.short_rows:
+        warnings_out.append(
+            f"{path}:{raw.first_short_line}: {raw.short_rows} row(s) shorter than the header (first on this "
+            f"line); their missing cells read as empty"
+        )
+    return warnings_out
+
+
+def read_trace_csv(path: str | Path, *, columns: Iterable[str] | None = None) -> Trace:
     """Read and validate a trace CSV.
+
+    Parameters
+    ----------
+    path : str or Path
+    columns : iterable of str, optional
+        Read only these of the known columns (the required ones are always read): less memory for long logs.
+
+    Returns
+    -------
+    Trace
+        Its ``warnings`` list the legal but suspicious things found (dropouts, sparse columns, short rows); each
+        is also issued as a :class:`TraceWarning`.
 
     Raises
     ------
     TraceFormatError
         With a one-line message naming the file, line (1-based, header is line 1) and column, for a missing file,
-        an empty file, a missing required column, text in a number column, NaN/inf, or time not strictly increasing.
+        an empty file, a missing required column (with a hint for ``;``/tab separators), text in a number column,
+        NaN/inf, a value outside :data:`PLAUSIBLE_ABS_MAX`, time not strictly increasing, a median sample interval
+        outside :data:`SAMPLE_INTERVAL_RANGE_S` (time in milliseconds) or a time gap over :data:`MAX_GAP_S`.
     """
     path_s = str(path)
     try:
-        fh = open(path, newline="", encoding="utf-8")
+        st = os.stat(path)  # before open(): opening a FIFO would block until someone writes to it
+        if stat.S_ISDIR(st.st_mode):
+            raise TraceFormatError(f"{path_s}: is a directory, not a trace file")
+        if not stat.S_ISREG(st.st_mode):
+            raise TraceFormatError(f"{path_s}: not a regular file (FIFO, device or socket)")
+        fh = open(path, "rb")
     except FileNotFoundError:
         raise TraceFormatError(f"{path_s}: no such trace file") from None
     except OSError as exc:
-        raise TraceFormatError(f"{path_s}: cannot read: {exc.strerror}") from None
+        raise TraceFormatError(f"{path_s}: cannot read: {exc.strerror or exc}") from None
     with fh:
-        reader = csv.reader(fh)
-        try:
-            header = next(reader)
-        except StopIteration:
-            raise TraceFormatError(f"{path_s}:1: empty file (no header row)") from None
-        except (UnicodeDecodeError, csv.Error) as exc:
-            raise TraceFormatError(f"{path_s}:1: not a CSV text file: {exc}") from None
-        header = [h.strip() for h in header]
-        missing = [c for c in REQUIRED_COLUMNS if c not in header]
-        if missing:
-            raise TraceFormatError(f"{path_s}:1: missing required column(s): {', '.join(missing)}")
-        dupes = sorted({h for h in header if header.count(h) > 1 and h})
-        if dupes:
-            raise TraceFormatError(f"{path_s}:1: duplicate column(s): {', '.join(dupes)}")
-        known = REQUIRED_COLUMNS + OPTIONAL_COLUMNS + EXTRA_COLUMNS
+        header = read_header(fh, path_s, REQUIRED_COLUMNS)
+        known = set(REQUIRED_COLUMNS + OPTIONAL_COLUMNS + EXTRA_COLUMNS)
+        if columns is not None:
+            known &= set(REQUIRED_COLUMNS) | set(columns)
         wanted = [(i, h) for i, h in enumerate(header) if h in known]
-        data: dict[str, list[float]] = {h: [] for _, h in wanted}
-        t_index = header.index("t_s")
-        prev_t = -math.inf
-        line = 1
-        try:
-            for line, row in enumerate(reader, start=2):
-                if not row or all(not c.strip() for c in row):
-                    continue  # blank line
-                if len(row) < len(header):
-                    row = row + [""] * (len(header) - len(row))
-                elif len(row) > len(header):
-                    raise TraceFormatError(
-                        f"{path_s}:{line}: {len(row)} fields, header has {len(header)}"
-                    )
-                for i, name in wanted:
-                    value = _parse_cell(row[i], path_s, line, name)
-                    if i == t_index:
-                        if math.isnan(value):
-                            raise TraceFormatError(f"{path_s}:{line}: column 't_s': time is empty")
-                        if value <= prev_t:
-                            raise TraceFormatError(
-                                f"{path_s}:{line}: column 't_s': time not strictly increasing "
-                                f"({value!r} after {prev_t!r})"
-                            )
-                        prev_t = value
-                    data[name].append(value)
-        except (UnicodeDecodeError, csv.Error) as exc:
-            raise TraceFormatError(f"{path_s}:{line}: not a CSV text file: {exc}") from None
-    if not data["t_s"]:
-        raise TraceFormatError(f"{path_s}:2: empty file (header but no samples)")
-    return Trace({k: np.array(v) for k, v in data.items()}, source=path_s)
+        start = fh.tell()
+        raw = parse_fast(fh, start, header, wanted)
+        if raw is None:
+            raw = parse_exact(fh, start, path_s, header, wanted)
+    notes = _check_columns(raw, path_s)
+    for note in notes:
+        warnings.warn(note, TraceWarning, stacklevel=2)
+    return Trace(dict(raw.values), source=path_s, warnings=notes)
+
+
+_WRITE_ROWS = 8192
 
 
 def write_csv_atomic(path: str | Path, header: Iterable[str], columns: Iterable[np.ndarray]) -> None:
     """Write columns to CSV via a temporary file in the same directory and an atomic rename.
 
-    NaN cells are written empty (missing samples), so every file this writes reads back with
-    :func:`read_trace_csv`.
+    NaN cells are written empty (missing samples), numbers in the shortest form that reads back exactly, so every
+    file this writes reads back with :func:`read_trace_csv`. Infinite values are refused (``ValueError``) before
+    anything is written. See :mod:`uuom_core.atomic_write` for what happens on interruption.
     """
-    path = Path(path)
     header = list(header)
     cols = [np.asarray(c, dtype=np.float64) for c in columns]
-    directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "w", newline="", encoding="utf-8") as fh:
-            fh.write(",".join(header) + "\n")
-            if cols:
-                stacked = np.column_stack(cols)
-                for row in stacked:
-                    fh.write(",".join("" if math.isnan(x) else repr(float(x)) for x in row) + "\n")
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    if len({len(c) for c in cols}) > 1:
+        raise ValueError(f"columns differ in length: {[len(c) for c in cols]}")
+    for name, c in zip(header, cols):
+        if np.isinf(c).any():
+            raise ValueError(f"column {name!r} has infinite values; the trace format cannot hold them")
+    with atomic_text_writer(path) as fh:
+        fh.write(",".join(header) + "\n")
+        if cols:
+            n = len(cols[0])
+            for a in range(0, n, _WRITE_ROWS):
+                # tolist() makes Python floats in C; repr is the shortest exact form; "nan" -> empty cell
+                rows = np.column_stack([c[a:a + _WRITE_ROWS] for c in cols]).tolist()
+                text = "\n".join([",".join(map(repr, r)) for r in rows]) + "\n"
+                fh.write(text.replace("nan", ""))
 
 
 def write_trace_csv(trace: Trace | Mapping[str, np.ndarray], path: str | Path) -> None:
@@ -205,9 +292,14 @@ __all__ = [
     "EXTRA_COLUMNS",
     "OPTIONAL_COLUMNS",
     "REQUIRED_COLUMNS",
+    "DROPOUT_WARN_S",
+    "MAX_GAP_S",
+    "PLAUSIBLE_ABS_MAX",
+    "SAMPLE_INTERVAL_RANGE_S",
     "TRUTH_COLUMNS",
     "Trace",
     "TraceFormatError",
+    "TraceWarning",
     "read_trace_csv",
     "write_csv_atomic",
     "write_trace_csv",

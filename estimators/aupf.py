@@ -142,6 +142,7 @@ class AUPFEstimator(Estimator):
 
     name = "aupf"
     provides = frozenset({"slip", "radius"})
+    outputs = ("slip_ratio", "drive_radius_m")
 
     def __init__(
         self,

@@ -84,10 +84,17 @@ class Estimator(ABC):
     provides : frozenset of str
         What the method estimates itself: a subset of ``{"mass", "slope", "mu", "slip", "radius"}``. For a quantity
         it does not estimate, it reports its prior (e.g. mid-range mass) with a large standard deviation.
+    outputs : tuple of str
+        The quantities a consumer should write or display for this estimator, in order (class attribute, default
+        ``("mass", "slope")``). ``"mass"`` means :attr:`Estimate.mass_kg` / ``mass_std_kg``, ``"slope"`` means
+        :attr:`Estimate.slope_rad` / ``slope_std_rad``; any other name is a key of :attr:`Estimate.extras`, whose
+        standard deviation, when the method gives one, is under ``NAME + "_std"``. A quantity not listed is a prior
+        placeholder, not an estimate (e.g. the mass ``imu-ukf`` reports), and must not be presented as a result.
     """
 
     name: ClassVar[str] = "base"
     provides: ClassVar[frozenset[str]] = frozenset()
+    outputs: ClassVar[tuple[str, ...]] = ("mass", "slope")
 
     def __init__(self, vehicle: VehicleParams | None = None, **options: Any) -> None:
         if options:

@@ -65,6 +65,7 @@ class IMUUKFEstimator(Estimator):
 
     name = "imu-ukf"
     provides = frozenset({"slope"})
+    outputs = ("slope",)
 
     def __init__(self, vehicle: VehicleParams | None = None, **options: Any) -> None:
         settings = dict(IMU_UKF_DEFAULTS)

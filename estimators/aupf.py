@@ -63,15 +63,23 @@ import numpy as np
 
 from uuom_core.vehicle import VehicleParams
 
+from .aupf_config import AUPFConfig, AUPFConfigError
 from .base import Estimate, Estimator
-from .filters import check_dt_non_negative, check_number_options, sage_husa_weight
+from .config import split_options
+from .filters import check_dt_non_negative, sage_husa_weight
 
 _LOG_2PI = math.log(2.0 * math.pi)
 _N_STATE = 2
 
 
-class AUPFConfigError(ValueError):
-    """An AUPF option that cannot work (names the option and the value)."""
+def _unscented_weights(n: int, alpha: float, beta: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """Sigma-point spread ``sqrt(n + lambda)`` and mean / covariance weights, ``lambda = n (alpha^2 - 1)``."""
+    lam = n * (alpha**2 - 1.0)
+    wm = np.full(2 * n + 1, 1.0 / (2.0 * (n + lam)))
+    wc = wm.copy()
+    wm[0] = lam / (n + lam)
+    wc[0] = lam / (n + lam) + (1.0 - alpha**2 + beta)
+    return math.sqrt(n + lam), wm, wc
 
 
 class AUPFEstimator(Estimator):
@@ -81,51 +89,16 @@ class AUPFEstimator(Estimator):
     ----------
     vehicle : VehicleParams, optional
         Nominal drive-wheel radius, clamp force, dry and wet adhesion come from here.
-    n_particles : int, default 64
-        Number of particles (each runs its own adaptive UKF for its proposal).
-    seed : int, default 0
-        Seed of the filter's own random generator (sampling, regime draws, resampling).
-    gear_ratio : float, default 1.0
-        ``motor_speed_radps / drive-wheel angular speed``.
-    initial_radius_std_m : float, default 0.005
-        Prior standard deviation of the radius around the nominal (unworn) one.
-    radius_process_std_m_per_sqrt_s : float, default 1e-5
-        Random-walk intensity of the radius (wear is slow).
-    slip_process_std : float, default 0.03
-        Slip process noise per sqrt(second) while adhering.
-    macro_slip_process_std : float, default 1.0
-        Slip process noise per sqrt(second) in macro-slip.
-    slip_time_constant_s : float, default 0.3
-        Relaxation time of the slip to the creep curve while adhering.
-    creep_slip : float, default 0.005
-        ``i_c`` of the creep curve.
-    adhesion : float, optional
-        ``mu_a`` of the creep curve; default the vehicle's dry-rail adhesion.
-    slip_onset_rate_hz, spontaneous_slip_rate_hz, slip_recovery_rate_hz : float, default 2.0, 0.01, 1.0
-        Regime-switch rates (see the module docstring).
-    max_slip : float, default 0.99
-        Bound of the slip ratio.
-    speed_std_mps : float, default 0.02
-        Initial ground-speed noise (adapted online).
-    motor_speed_std_radps : float, default 0.05
-        Drive-wheel speed noise, folded into the initial measurement noise.
-    noise_fading : float, default 0.995
-        Sage-Husa fading factor ``b``.
-    alpha, beta : float, default 1.0, 2.0
-        Unscented-transform parameters (paper 004: ``1e-4 <= alpha <= 1``, ``beta = 2``).
-    resample_ess_fraction : float, default 0.5
-        Resample when ESS < this fraction of ``n_particles``.
-    min_speed_mps : float, default 0.05
-        Below this ground speed the filter only predicts.
-    underflow_log_likelihood : float, default -30.0
-        Weight-underflow threshold of the best particle's log-likelihood.
-    radius_model_std_m : float, optional
-        Added (in quadrature) to the reported radius standard deviation: the filter's own variance only knows the
-        sensor noise, but a creep slip that differs from the model's is indistinguishable from wear. Default
-        ``0.5 * creep_slip * r_nominal`` (0.43 mm).
+    config : AUPFConfig, optional
+        The filter's tuning (see :class:`~estimators.aupf_config.AUPFConfig` for every field and its default).
+    **options
+        Fields of :class:`~estimators.aupf_config.AUPFConfig` given by name (``n_particles=128``); they override
+        ``config``. Unknown names raise ``TypeError``, bad values :class:`AUPFConfigError`.
 
     Attributes
     ----------
+    config : AUPFConfig
+        The validated tuning.
     slip : ndarray, shape (n_particles,)
         Every particle's slip ratio.
     regime : ndarray of int8, shape (n_particles,)
@@ -144,122 +117,39 @@ class AUPFEstimator(Estimator):
     provides = frozenset({"slip", "radius"})
     outputs = ("slip_ratio", "drive_radius_m")
 
-    def __init__(
-        self,
-        vehicle: VehicleParams | None = None,
-        *,
-        n_particles: int = 64,
-        seed: int = 0,
-        gear_ratio: float = 1.0,
-        initial_radius_std_m: float = 0.005,
-        radius_process_std_m_per_sqrt_s: float = 1e-5,
-        slip_process_std: float = 0.03,
-        macro_slip_process_std: float = 1.0,
-        slip_time_constant_s: float = 0.3,
-        creep_slip: float = 0.005,
-        adhesion: float | None = None,
-        slip_onset_rate_hz: float = 2.0,
-        spontaneous_slip_rate_hz: float = 0.01,
-        slip_recovery_rate_hz: float = 1.0,
-        max_slip: float = 0.99,
-        speed_std_mps: float = 0.02,
-        motor_speed_std_radps: float = 0.05,
-        noise_fading: float = 0.995,
-        alpha: float = 1.0,
-        beta: float = 2.0,
-        resample_ess_fraction: float = 0.5,
-        min_speed_mps: float = 0.05,
-        underflow_log_likelihood: float = -30.0,
-        radius_model_std_m: float | None = None,
-        **options: Any,
-    ) -> None:
-        super().__init__(vehicle, **options)
+    def __init__(self, vehicle: VehicleParams | None = None, config: AUPFConfig | None = None,
+                 **options: Any) -> None:
+        cfg, rest = split_options(AUPFConfig, config, options)
+        super().__init__(vehicle, **rest)
         veh = self.vehicle
-        if isinstance(n_particles, bool) or not isinstance(n_particles, (int, np.integer)) or n_particles < 2:
-            raise AUPFConfigError(f"n_particles must be an integer >= 2, got {n_particles!r}")
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-            raise AUPFConfigError(f"seed must be an integer, got {seed!r}")
-        mu_a = veh.adhesion_dry if adhesion is None else adhesion
-        positive = {
-            "gear_ratio": gear_ratio,
-            "initial_radius_std_m": initial_radius_std_m,
-            "radius_process_std_m_per_sqrt_s": radius_process_std_m_per_sqrt_s,
-            "slip_process_std": slip_process_std,
-            "macro_slip_process_std": macro_slip_process_std,
-            "slip_time_constant_s": slip_time_constant_s,
-            "creep_slip": creep_slip,
-            "adhesion": mu_a,
-            "slip_recovery_rate_hz": slip_recovery_rate_hz,
-            "max_slip": max_slip,
-            "speed_std_mps": speed_std_mps,
-            "motor_speed_std_radps": motor_speed_std_radps,
-            "alpha": alpha,
-            "resample_ess_fraction": resample_ess_fraction,
-            "min_speed_mps": min_speed_mps,
-        }
-        others = {
-            "beta": beta,
-            "noise_fading": noise_fading,
-            "underflow_log_likelihood": underflow_log_likelihood,
-            "slip_onset_rate_hz": slip_onset_rate_hz,
-            "spontaneous_slip_rate_hz": spontaneous_slip_rate_hz,
-        }
-        check_number_options(
-            {**positive, **others},
-            AUPFConfigError,
-            positive=positive,
-            non_negative=("beta", "slip_onset_rate_hz", "spontaneous_slip_rate_hz"),
-            reject_bool=True,
-        )
-        if not (0.0 < noise_fading < 1.0):
-            raise AUPFConfigError(f"noise_fading must be in (0, 1), got {noise_fading!r}")
-        if not (1e-4 <= alpha <= 1.0):
-            raise AUPFConfigError(f"alpha must be in [1e-4, 1] (paper 004), got {alpha!r}")
-        if resample_ess_fraction > 1.0:
-            raise AUPFConfigError(f"resample_ess_fraction must be <= 1, got {resample_ess_fraction!r}")
-        if max_slip >= 1.0:
-            raise AUPFConfigError(f"max_slip must be < 1, got {max_slip!r}")
-        if underflow_log_likelihood >= 0:
-            raise AUPFConfigError(f"underflow_log_likelihood must be < 0, got {underflow_log_likelihood!r}")
-
-        self.n_particles = int(n_particles)
-        self.seed = int(seed)
-        self._gear = float(gear_ratio)
+        self.config = cfg
+        self.n_particles = int(cfg.n_particles)
+        self.seed = int(cfg.seed)
+        self._gear = float(cfg.gear_ratio)
         self._r_nom = veh.drive_wheel_radius_m
         self._clamp_n = veh.clamp_force_n
-        self._sigma0 = float(initial_radius_std_m) ** 2
-        if radius_model_std_m is None:
-            radius_model_std_m = 0.5 * creep_slip * self._r_nom
-        if not isinstance(radius_model_std_m, (int, float)) or not (0.0 <= radius_model_std_m < math.inf):
-            raise AUPFConfigError(f"radius_model_std_m must be a finite number >= 0, got {radius_model_std_m!r}")
-        self._r_model_var = float(radius_model_std_m) ** 2
-        self._q_r = float(radius_process_std_m_per_sqrt_s) ** 2
-        self._q_adh = float(slip_process_std) ** 2
-        self._q_macro = float(macro_slip_process_std) ** 2
-        self._tau = float(slip_time_constant_s)
-        self._i_c = float(creep_slip)
-        self._mu_a = float(mu_a)
+        self._sigma0 = float(cfg.initial_radius_std_m) ** 2
+        self._r_model_var = cfg.radius_model_std_for(veh) ** 2
+        # slip and radius dynamics
+        self._q_r = float(cfg.radius_process_std_m_per_sqrt_s) ** 2
+        self._q_adh = float(cfg.slip_process_std) ** 2
+        self._q_macro = float(cfg.macro_slip_process_std) ** 2
+        self._tau = float(cfg.slip_time_constant_s)
+        self._i_c = float(cfg.creep_slip)
+        self._mu_a = cfg.adhesion_for(veh)
         self._u_onset = 0.8 * veh.adhesion_wet
-        self._rate_onset = float(slip_onset_rate_hz)
-        self._rate_spont = float(spontaneous_slip_rate_hz)
-        self._rate_recover = float(slip_recovery_rate_hz)
-        self._max_slip = float(max_slip)
+        self._rate_onset = float(cfg.slip_onset_rate_hz)
+        self._rate_spont = float(cfg.spontaneous_slip_rate_hz)
+        self._rate_recover = float(cfg.slip_recovery_rate_hz)
+        self._max_slip = float(cfg.max_slip)
         # both encoders' noise enter the one measurement equation; the adaptation refines the sum
-        self._r0 = float(speed_std_mps) ** 2 + (float(motor_speed_std_radps) * self._r_nom) ** 2
+        self._r0 = float(cfg.speed_std_mps) ** 2 + (float(cfg.motor_speed_std_radps) * self._r_nom) ** 2
         self._r_min = 0.05 * self._r0
-        self._b = float(noise_fading)
-        self._ess_min = float(resample_ess_fraction) * self.n_particles
-        self._v_min = float(min_speed_mps)
-        self._ll_floor = float(underflow_log_likelihood)
-        n = _N_STATE
-        lam = n * (alpha**2 - 1.0)
-        self._gamma = math.sqrt(n + lam)
-        wm = np.full(2 * n + 1, 1.0 / (2.0 * (n + lam)))
-        wc = wm.copy()
-        wm[0] = lam / (n + lam)
-        wc[0] = lam / (n + lam) + (1.0 - alpha**2 + beta)
-        self._wm = wm
-        self._wc = wc
+        self._b = float(cfg.noise_fading)
+        self._ess_min = float(cfg.resample_ess_fraction) * self.n_particles
+        self._v_min = float(cfg.min_speed_mps)
+        self._ll_floor = float(cfg.underflow_log_likelihood)
+        self._gamma, self._wm, self._wc = _unscented_weights(_N_STATE, cfg.alpha, cfg.beta)
         self._prior = Estimate(
             mass_kg=veh.empty_mass_kg + 0.5 * veh.rated_load_kg,
             slope_rad=0.0,
@@ -513,4 +403,4 @@ class AUPFEstimator(Estimator):
         )
 
 
-__all__ = ["AUPFConfigError", "AUPFEstimator"]
+__all__ = ["AUPFConfig", "AUPFConfigError", "AUPFEstimator"]

@@ -53,15 +53,13 @@ import numpy as np
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
-from .filters import check_dt_non_negative, check_number_options
+from .config import split_options
+from .filters import check_dt_non_negative
+from .mmae_config import MMAEConfig, MMAEConfigError
 
 _LOG_2PI = math.log(2.0 * math.pi)
 _REPAIR_EVERY = 50
 _SLOPE_TAU_S = 1.0  # low-pass of the model-free slope that feeds the rear-section slope history
-
-
-class MMAEConfigError(ValueError):
-    """An MMAE option that cannot work (names the option and the value)."""
 
 
 class MMAEEstimator(Estimator):
@@ -71,57 +69,21 @@ class MMAEEstimator(Estimator):
     ----------
     vehicle : VehicleParams, optional
         Empty mass, rated load, drive radius, rotating mass and nominal running resistance come from here.
-    n_models : int, default 30
-        Number of payload hypotheses (the patent uses 30; 50 were run in real time).
-    payload_min_kg, payload_max_kg : float, optional
-        Range of the hypotheses; default 0 to the vehicle's rated load.
-    running_resistance : float, optional
-        Running-resistance coefficient of the model; default the vehicle's nominal value.
-    speed_std_mps : float, default 0.02
-        Standard deviation of the ground-speed measurement.
-    accel_std_mps2 : float, default 0.3
-        Standard deviation of the specific-force measurement, including the vibration of the swinging load.
-    accel_process_std_mps2 : float, default 0.15
-        Intensity (m/s^2 per sqrt(Hz)) of the unmodelled longitudinal force per unit mass (couplers, sway).
-    curvature_change_std : float, default 6e-3
-        Random-walk intensity of the slope curvature ``kappa = d theta / ds`` per sqrt(metre) travelled (rad/m per
-        sqrt(m)); loose enough to follow the road test's 0-to-11 deg vertical curve of 8 m (0.024 rad/m).
-    initial_curvature_std_rad_per_m : float, default 1e-3
-        Prior standard deviation of the slope curvature (prior mean 0).
-    slope_process_floor_radps : float, default 1e-4
-        Slope random-walk intensity (in time) on top of the curvature model.
-    front_mass_fraction : float, default 0.55
-        Share of the empty mass on the front (drive) section, at the accelerometer.
-    rear_offset_m : float, default 9.0
-        Distance from the accelerometer back to the rear section and the payload's suspension (the project plant:
-        IMU on the drive section, lifting beams 9 m behind). Without it a 30 m vertical curve biased the payload
-        by 20-40 % (measured on the plant). 0 = a point mass (whole train on one slope).
-    history_step_m : float, default 0.25
-        Distance resolution of the remembered slope profile.
-    initial_slope_std_rad : float, default 0.15
-        Prior standard deviation of the slope (prior mean 0).
-    initial_speed_std_mps : float, default 0.5
-        Prior standard deviation of the speed (prior mean: the first valid speed sample).
-    prob_floor : float, default 1e-6
-        Lower bound of every model probability.
-    min_traction_n : float, default 2000.0
-        Model probabilities are only updated while the drive force ``T/r`` exceeds this.
-    standstill_speed_mps : float, default 0.03
-        Below this measured speed the train is taken as held at rest (a = 0, probabilities frozen).
-    smooth_speed_mps : float, default 0.01
-        ``v_s`` of the smooth sign ``tanh(v / v_s)`` of the running resistance. Small: the plant's resistance is
-        Coulomb friction, and with 0.05 m/s the model under-counted it while the train crawled into a station and
-        over-estimated the payload by up to 12 % (measured).
-    gate_nis : float, default 36.0
-        Freeze the probabilities on a sample whose best-model normalised innovation squared exceeds this.
+    config : MMAEConfig, optional
+        The bank's tuning (see :class:`~estimators.mmae_config.MMAEConfig` for every field and its default).
+    **options
+        Fields of :class:`~estimators.mmae_config.MMAEConfig` given by name (``n_models=50``); they override
+        ``config``. Unknown names raise ``TypeError``, bad values :class:`MMAEConfigError`.
 
     Attributes
     ----------
+    config : MMAEConfig
+        The validated tuning.
     payloads_kg : ndarray, shape (n_models,)
         The hypothesised payloads.
-    x : ndarray, shape (n_models, 2)
-        Per-model state ``[v_mps, slope_rad]``.
-    P : ndarray, shape (n_models, 2, 2)
+    x : ndarray, shape (n_models, 3)
+        Per-model state ``[v_mps, slope_rad, curvature_rad_per_m]``.
+    P : ndarray, shape (n_models, 3, 3)
         Per-model state covariance.
     probabilities : ndarray, shape (n_models,)
         Current model probabilities (sum to 1).
@@ -130,110 +92,48 @@ class MMAEEstimator(Estimator):
     name = "mmae"
     provides = frozenset({"mass", "slope"})
 
-    def __init__(
-        self,
-        vehicle: VehicleParams | None = None,
-        *,
-        n_models: int = 30,
-        payload_min_kg: float = 0.0,
-        payload_max_kg: float | None = None,
-        running_resistance: float | None = None,
-        speed_std_mps: float = 0.02,
-        accel_std_mps2: float = 0.3,
-        accel_process_std_mps2: float = 0.15,
-        curvature_change_std: float = 6e-3,
-        initial_curvature_std_rad_per_m: float = 1e-3,
-        front_mass_fraction: float = 0.55,
-        rear_offset_m: float = 9.0,
-        history_step_m: float = 0.25,
-        slope_process_floor_radps: float = 1e-4,
-        initial_slope_std_rad: float = 0.15,
-        initial_speed_std_mps: float = 0.5,
-        prob_floor: float = 1e-6,
-        min_traction_n: float = 2000.0,
-        standstill_speed_mps: float = 0.03,
-        smooth_speed_mps: float = 0.01,
-        gate_nis: float = 36.0,
-        **options: Any,
-    ) -> None:
-        super().__init__(vehicle, **options)
+    def __init__(self, vehicle: VehicleParams | None = None, config: MMAEConfig | None = None,
+                 **options: Any) -> None:
+        cfg, rest = split_options(MMAEConfig, config, options)
+        super().__init__(vehicle, **rest)
         veh = self.vehicle
-        if isinstance(n_models, bool) or not isinstance(n_models, (int, np.integer)) or n_models < 2:
-            raise MMAEConfigError(f"n_models must be an integer >= 2, got {n_models!r}")
-        if payload_max_kg is None:
-            payload_max_kg = veh.rated_load_kg if veh.rated_load_kg > payload_min_kg else payload_min_kg + 1.0
-        positive = {
-            "speed_std_mps": speed_std_mps,
-            "accel_std_mps2": accel_std_mps2,
-            "accel_process_std_mps2": accel_process_std_mps2,
-            "slope_process_floor_radps": slope_process_floor_radps,
-            "initial_slope_std_rad": initial_slope_std_rad,
-            "initial_curvature_std_rad_per_m": initial_curvature_std_rad_per_m,
-            "initial_speed_std_mps": initial_speed_std_mps,
-            "smooth_speed_mps": smooth_speed_mps,
-            "history_step_m": history_step_m,
-            "gate_nis": gate_nis,
-        }
-        non_negative = {
-            "payload_min_kg": payload_min_kg,
-            "curvature_change_std": curvature_change_std,
-            "rear_offset_m": rear_offset_m,
-            "front_mass_fraction": front_mass_fraction,
-            "min_traction_n": min_traction_n,
-            "standstill_speed_mps": standstill_speed_mps,
-        }
-        check_number_options(
-            {**positive, **non_negative, "payload_max_kg": payload_max_kg},
-            MMAEConfigError,
-            positive=positive,
-            non_negative=non_negative,
-        )
-        if payload_max_kg <= payload_min_kg:
-            raise MMAEConfigError(
-                f"payload_max_kg ({payload_max_kg!r}) must exceed payload_min_kg ({payload_min_kg!r})"
-            )
-        if not (0.0 < prob_floor < 1.0 / n_models):
-            raise MMAEConfigError(f"prob_floor must be in (0, 1/n_models), got {prob_floor!r}")
-        mu = veh.running_resistance if running_resistance is None else running_resistance
-        if not isinstance(mu, (int, float)) or not (0.0 <= mu < 1.0):
-            raise MMAEConfigError(f"running_resistance must be in [0, 1), got {mu!r}")
-
-        self.n_models = int(n_models)
-        self.payloads_kg = np.linspace(float(payload_min_kg), float(payload_max_kg), self.n_models)
+        self.config = cfg
+        self.n_models = int(cfg.n_models)
+        self.payloads_kg = cfg.payloads_kg(veh)
+        self._mu = cfg.running_resistance_for(veh)
+        # per-model mass terms, divided by the effective (translating + rotating) mass once here
         self._mass = veh.empty_mass_kg + self.payloads_kg
         self._m_rot = veh.rotating_mass_kg
         self._inv_meff = 1.0 / (self._mass + self._m_rot)
-        self._mass_ratio = self._mass * self._inv_meff  # M_j / (M_j + m_rot)
-        self._rot_ratio = self._m_rot * self._inv_meff  # m_rot / (M_j + m_rot)
         self._radius = veh.drive_wheel_radius_m
-        self._mu = float(mu)
-        self._r_v = float(speed_std_mps) ** 2
-        self._r_f = float(accel_std_mps2) ** 2
-        self._q_v = float(accel_process_std_mps2) ** 2
-        self._q_kappa_per_m = float(curvature_change_std) ** 2
-        self._p0_kappa = float(initial_curvature_std_rad_per_m) ** 2
-        if front_mass_fraction > 1.0:
-            raise MMAEConfigError(f"front_mass_fraction must be in [0, 1], got {front_mass_fraction!r}")
-        self._rear_offset = float(rear_offset_m)
-        self._hist_step = float(history_step_m)
-        self._hist_len = int(math.ceil(self._rear_offset / self._hist_step)) + 16
-        m_front = float(front_mass_fraction) * veh.empty_mass_kg
-        if self._rear_offset == 0.0:  # point mass: every part on the accelerometer's slope
+        m_front = float(cfg.front_mass_fraction) * veh.empty_mass_kg
+        if cfg.rear_offset_m == 0.0:  # point mass: every part on the accelerometer's slope
             m_front = self._mass.copy()
         m_rear = self._mass - m_front
-        self._q_th_floor = float(slope_process_floor_radps) ** 2
-        self._p0_th = float(initial_slope_std_rad) ** 2
-        self._p0_v = float(initial_speed_std_mps) ** 2
-        self._floor = float(prob_floor)
-        self._eye = np.broadcast_to(np.eye(3), (self.n_models, 3, 3)).copy()
         self._gf = G_MPS2 * m_front * self._inv_meff
         self._gf_mu = self._gf * self._mu
         self._gr = G_MPS2 * m_rear * self._inv_meff
         self._gr_mu = self._gr * self._mu
-        self._min_traction_n = float(min_traction_n)
-        self._standstill = float(standstill_speed_mps)
-        self._v_s = float(smooth_speed_mps)
-        self._gate_nis = float(gate_nis)
+        # noise variances and priors
+        self._r_v = float(cfg.speed_std_mps) ** 2
+        self._r_f = float(cfg.accel_std_mps2) ** 2
+        self._q_v = float(cfg.accel_process_std_mps2) ** 2
+        self._q_kappa_per_m = float(cfg.curvature_change_std) ** 2
+        self._q_th_floor = float(cfg.slope_process_floor_radps) ** 2
+        self._p0_kappa = float(cfg.initial_curvature_std_rad_per_m) ** 2
+        self._p0_th = float(cfg.initial_slope_std_rad) ** 2
+        self._p0_v = float(cfg.initial_speed_std_mps) ** 2
+        # rear-slope history along the distance travelled
+        self._rear_offset = float(cfg.rear_offset_m)
+        self._hist_step = float(cfg.history_step_m)
+        self._hist_len = int(math.ceil(self._rear_offset / self._hist_step)) + 16
+        # gates and the probability floor
+        self._floor = float(cfg.prob_floor)
+        self._min_traction_n = float(cfg.min_traction_n)
+        self._standstill = float(cfg.standstill_speed_mps)
+        self._v_s = float(cfg.smooth_speed_mps)
+        self._gate_nis = float(cfg.gate_nis)
+        self._eye = np.broadcast_to(np.eye(3), (self.n_models, 3, 3)).copy()
         # half-spacing quantisation of the payload grid: the mixture cannot resolve finer than this
         spacing = self.payloads_kg[1] - self.payloads_kg[0]
         self._grid_var = spacing**2 / 12.0
@@ -492,4 +392,4 @@ class MMAEEstimator(Estimator):
         return np.einsum("j,jab->ab", prob, self.P) + np.einsum("j,ja,jb->ab", prob, d, d)
 
 
-__all__ = ["MMAEConfigError", "MMAEEstimator"]
+__all__ = ["MMAEConfig", "MMAEConfigError", "MMAEEstimator"]

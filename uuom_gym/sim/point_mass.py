@@ -116,7 +116,10 @@ class PointMassSensors:
 
 @dataclass(frozen=True)
 class PointMassFaults:
-    """Sensor faults: dropouts (NaN), spikes, a stuck channel, all on :data:`SENSOR_CHANNELS`."""
+    """Sensor faults on :data:`SENSOR_CHANNELS`: dropouts (NaN), spikes, a stuck channel, bias drift.
+
+    ``bias_drift_per_s`` maps a channel to a drift rate (channel units per second) accumulating from t = 0.
+    """
 
     dropout_prob: float = 0.0
     spike_prob: float = 0.0
@@ -126,8 +129,12 @@ class PointMassFaults:
     stuck_channel: str | None = None
     stuck_start_s: float = 0.0
     stuck_duration_s: float = 0.0
+    bias_drift_per_s: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        for k, v in self.bias_drift_per_s.items():
+            if k not in SENSOR_CHANNELS or not math.isfinite(v):
+                raise PointMassError(f"PointMassFaults.bias_drift_per_s: bad entry {k!r}: {v!r}")
         for name in ("dropout_prob", "spike_prob"):
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
@@ -206,6 +213,49 @@ def point_mass_scenario(name: str) -> PointMassScenario:
             from None
 
 
+@dataclass(frozen=True)
+class PointMassModel:
+    """The equations of motion: body (point) + rotating mass + load on a damped rigid pendulum, on a local grade.
+
+    Exposed so the physics can be checked on its own (energy balance) apart from the driver and the sensors.
+    """
+
+    body_kg: float
+    rotating_kg: float
+    pendulum_kg: float
+    length_m: float
+    damping_nms: float
+    running_resistance: float
+
+    @property
+    def total_kg(self) -> float:
+        """Mass gravity and running resistance act on (the rotating mass is an inertia only)."""
+        return self.body_kg + self.pendulum_kg
+
+    def accelerations(self, slope_rad: float, v: float, phi: float, w: float, force_n: float) -> tuple[float, float]:
+        """``(x'', phi'')`` for the motor force ``force_n`` (the 2x2 mass matrix solved in closed form)."""
+        m, L = self.pendulum_kg, self.length_m
+        d = phi - slope_rad
+        cd, sd = math.cos(d), math.sin(d)
+        res_max = self.running_resistance * self.total_kg * G_MPS2 * math.cos(slope_rad)
+        # smooth Coulomb resistance: opposes motion, fades to zero through standstill
+        resist = res_max * math.tanh(v / 0.005)
+        rhs_x = force_n - resist - self.total_kg * G_MPS2 * math.sin(slope_rad) + m * L * w * w * sd
+        rhs_p = -m * G_MPS2 * L * math.sin(phi) - self.damping_nms * w
+        a11, a12 = self.body_kg + self.rotating_kg + m, m * L * cd
+        a22 = m * L * L
+        det = a11 * a22 - a12 * a12
+        return (rhs_x * a22 - a12 * rhs_p) / det, (a11 * rhs_p - a12 * rhs_x) / det
+
+    def energy_j(self, x: float, slope_rad: float, v: float, phi: float, w: float) -> float:
+        """Kinetic + potential energy on a constant grade ``slope_rad`` (body at ``x`` along it)."""
+        m, L = self.pendulum_kg, self.length_m
+        kin = 0.5 * (self.body_kg + self.rotating_kg) * v * v
+        kin += 0.5 * m * (v * v + L * L * w * w + 2.0 * v * L * w * math.cos(phi - slope_rad))
+        pot = self.total_kg * G_MPS2 * x * math.sin(slope_rad) - m * G_MPS2 * L * math.cos(phi)
+        return kin + pot
+
+
 class _PIDriver:
     """PI on the speed error giving a force demand; no feed-forward; gains scaled by the mass it assumes."""
 
@@ -263,11 +313,13 @@ def simulate_point_mass(
     rng = np.random.default_rng(int(seed))
     mu = veh.running_resistance if sc.running_resistance is None else float(sc.running_resistance)
     m_pend = sc.hook_mass_kg + sc.load_kg  # the hanging mass (hook block always hangs)
-    m_body = veh.empty_mass_kg - sc.hook_mass_kg
-    m_tot = m_body + m_pend
-    m_rot = veh.rotating_mass_kg
     L = sc.chain_length_m
-    c_damp = 2.0 * sc.sway_damping_ratio * m_pend * L * L * math.sqrt(G_MPS2 / L)
+    model = PointMassModel(
+        body_kg=veh.empty_mass_kg - sc.hook_mass_kg, rotating_kg=veh.rotating_mass_kg, pendulum_kg=m_pend,
+        length_m=L, damping_nms=2.0 * sc.sway_damping_ratio * m_pend * L * L * math.sqrt(G_MPS2 / L),
+        running_resistance=mu,
+    )
+    m_tot = model.total_kg
     driver = _PIDriver(sc.speed, veh.rated_mass_kg * 0.75, max_force_n=veh.max_traction_n)
     n = int(round(sc.duration_s * sample_hz))
     dt = 1.0 / sample_hz
@@ -286,8 +338,6 @@ def simulate_point_mass(
         acc_sum = 0.0
         for _ in range(substeps):
             th = sc.grade.slope_rad(x)
-            d = phi - th
-            cd, sd = math.cos(d), math.sin(d)
             res_max = mu * m_tot * G_MPS2 * math.cos(th)
             grav = m_tot * G_MPS2 * math.sin(th)
             # standstill: brake + static resistance hold the train while the driver asks for little or nothing
@@ -295,19 +345,12 @@ def simulate_point_mass(
                 held = driver.v_ref < 0.02 and f_motor - grav < res_max + 0.2 * veh.max_traction_n
                 if held:
                     # train fixed: only the pendulum moves (x'' = 0)
-                    phi_dd = (-m_pend * G_MPS2 * L * math.sin(phi) - c_damp * w) / (m_pend * L * L)
+                    phi_dd = (-m_pend * G_MPS2 * L * math.sin(phi) - model.damping_nms * w) / (m_pend * L * L)
                     w += h * phi_dd
                     phi += h * w
                     v = 0.0
                     continue
-            resist = res_max * math.tanh(v / 0.005)
-            rhs_x = f_motor - resist - grav + m_pend * L * w * w * sd
-            rhs_p = -m_pend * G_MPS2 * L * math.sin(phi) - c_damp * w
-            a11, a12 = m_body + m_rot + m_pend, m_pend * L * cd
-            a21, a22 = m_pend * L * cd, m_pend * L * L
-            det = a11 * a22 - a12 * a21
-            x_dd = (rhs_x * a22 - a12 * rhs_p) / det
-            phi_dd = (a11 * rhs_p - a21 * rhs_x) / det
+            x_dd, phi_dd = model.accelerations(th, v, phi, w, f_motor)
             v += h * x_dd
             w += h * phi_dd
             x += h * v
@@ -344,6 +387,8 @@ def _record(sc: PointMassScenario, veh: VehicleParams, out: dict[str, np.ndarray
     accel = q(f_true + vib + b_a + rng.normal(0.0, c.accel_noise_std_mps2, n), c.accel_resolution_mps2)
     meas = {"torque_nm": torque, "speed_mps": speed, "accel_mps2": accel}
     f = sc.faults
+    for k, rate in f.bias_drift_per_s.items():
+        meas[k] = meas[k] + rate * t
     if f.spike_prob > 0:
         for k in SENSOR_CHANNELS:
             hit = rng.random(n) < f.spike_prob

@@ -141,7 +141,7 @@ class SageHusaAEKF(SlopeEKF):
             Q11 = (1.0 - d) * self.Q11 + d * (k1 * k1 * e2 + self.P11 - fp11)
             Q12 = (1.0 - d) * self.Q12 + d * (k1 * k2 * e2 + self.P12 - fp12)
             Q22 = (1.0 - d) * self.Q22 + d * (k2 * k2 * e2 + self.P22 - fp22)
-            self.Q11, self.Q12, self.Q22 = repair_pd_2x2(Q11, Q12, Q22, self.q_floor, self.q_ceil)
+            self.Q11, self.Q12, self.Q22 = repair_pd_2x2(Q11, Q12, Q22, *self.q_floor, *self.q_ceil)
             if self.adapt_means:
                 # x̂_k − f(x̂_{k−1}) = correction + the q̂ already added in predict
                 qv = (1.0 - d) * self.q_mean_v + d * (self.v - (self._x_pred[0] - self.q_mean_v))

@@ -27,7 +27,7 @@ import numpy as np
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
-from .filters import SpikeGate, check_dt, joseph_update, repair_pd
+from .filters import SpikeGate, check_dt, joseph_update, kalman_update_2x2_h1, repair_pd, repair_pd_2x2
 
 __all__ = ["SlopeEKF", "JointEKF"]
 
@@ -158,30 +158,12 @@ class SlopeEKF:
         return eps
 
     def _correct(self, eps: float, S: float, R: float) -> None:
-        P11, P12, P22 = self.P11, self.P12, self.P22
-        k1 = P11 / S
-        k2 = P12 / S
-        self.v += k1 * eps
-        th = self.th + k2 * eps
+        dv, dth, n11, n12, n22 = kalman_update_2x2_h1(self.P11, self.P12, self.P22, eps, R)
+        self.v += dv
+        th = self.th + dth
         ms = self.max_slope
         self.th = ms if th > ms else (-ms if th < -ms else th)
-        # Joseph form (I-KH) P (I-KH)^T + K R K^T with H = [1, 0], on the three distinct entries
-        a = 1.0 - k1
-        n11 = a * a * P11 + k1 * k1 * R
-        n12 = a * (P12 - k2 * P11) + k1 * k2 * R
-        n22 = k2 * k2 * P11 - 2.0 * k2 * P12 + P22 + k2 * k2 * R
-        # the 2x2 repair of rls.py and specific_force.py (floor variances, |corr| < 0.999), inline on purpose:
-        # a shared helper call measured +2-5 % time per sample in these loops
-        if n11 < 1e-14:
-            n11 = 1e-14
-        if n22 < 1e-14:
-            n22 = 1e-14
-        lim = 0.999 * math.sqrt(n11 * n22)
-        if n12 > lim:
-            n12 = lim
-        elif n12 < -lim:
-            n12 = -lim
-        self.P11, self.P12, self.P22 = n11, n12, n22
+        self.P11, self.P12, self.P22 = repair_pd_2x2(n11, n12, n22, 1e-14, 1e-14)
 
     @property
     def slope_std_rad(self) -> float:

@@ -66,7 +66,8 @@ from uuom_core.vehicle import VehicleParams
 from .aupf_config import AUPFConfig, AUPFConfigError
 from .base import Estimate, Estimator
 from .config import split_options
-from .filters import check_dt_non_negative, sage_husa_weight
+from .filters import MAX_STEP_S, check_dt_non_negative, sage_husa_weight
+from .input_limits import InputLimits, plausible
 
 _LOG_2PI = math.log(2.0 * math.pi)
 _N_STATE = 2
@@ -150,6 +151,7 @@ class AUPFEstimator(Estimator):
         self._v_min = float(cfg.min_speed_mps)
         self._ll_floor = float(cfg.underflow_log_likelihood)
         self._gamma, self._wm, self._wc = _unscented_weights(_N_STATE, cfg.alpha, cfg.beta)
+        self._limits = InputLimits.for_vehicle(veh)
         self._prior = Estimate(
             mass_kg=veh.empty_mass_kg + 0.5 * veh.rated_load_kg,
             slope_rad=0.0,
@@ -230,8 +232,18 @@ class AUPFEstimator(Estimator):
         gyro_radps: float = math.nan,
         accel_normal_mps2: float = math.nan,
     ) -> Estimate:
-        """Process one sample (torque, ground speed and motor speed are used); NaN = missing (predict only)."""
+        """Process one sample (torque, ground speed and motor speed are used); NaN = missing (predict only).
+
+        A value beyond :class:`~estimators.input_limits.InputLimits` (``inf``, ``1e300``) counts as missing too. A
+        ``dt_s`` above :data:`~estimators.filters.MAX_STEP_S` is a data gap: the particles predict over that long.
+        Raises ``ValueError`` for a ``dt_s`` that is NaN, infinite or negative.
+        """
         check_dt_non_negative(dt_s, "aupf")
+        dt_s = min(dt_s, MAX_STEP_S)
+        lim = self._limits
+        torque_nm = plausible(torque_nm, lim.torque_nm)
+        speed_mps = plausible(speed_mps, lim.speed_mps)
+        motor_speed_radps = plausible(motor_speed_radps, lim.motor_speed_radps)
         if math.isfinite(torque_nm):
             self._last_torque = float(torque_nm)
         torque = self._last_torque

@@ -54,7 +54,8 @@ from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
 from .config import split_options
-from .filters import check_dt_non_negative
+from .filters import MAX_STEP_S, check_dt_non_negative
+from .input_limits import InputLimits, plausible
 from .mmae_config import MMAEConfig, MMAEConfigError
 
 _LOG_2PI = math.log(2.0 * math.pi)
@@ -133,6 +134,7 @@ class MMAEEstimator(Estimator):
         self._standstill = float(cfg.standstill_speed_mps)
         self._v_s = float(cfg.smooth_speed_mps)
         self._gate_nis = float(cfg.gate_nis)
+        self._limits = InputLimits.for_vehicle(veh)
         self._eye = np.broadcast_to(np.eye(3), (self.n_models, 3, 3)).copy()
         # half-spacing quantisation of the payload grid: the mixture cannot resolve finer than this
         spacing = self.payloads_kg[1] - self.payloads_kg[0]
@@ -207,6 +209,9 @@ class MMAEEstimator(Estimator):
         if self._hist_first > b:  # first sample
             self._hist_first = self._hist_last = b
             self._hist[b % self._hist_len] = slope_rad
+        if b - self._hist_last > self._hist_len:  # moved on farther than the history holds: one slope for it all
+            self._hist[:] = slope_rad
+            self._hist_last = b
         while self._hist_last < b:  # moving forward: fill every bin passed since the last sample
             self._hist_last += 1
             self._hist[self._hist_last % self._hist_len] = slope_rad
@@ -282,6 +287,7 @@ class MMAEEstimator(Estimator):
         if self._n_since_repair < _REPAIR_EVERY:
             return
         self._n_since_repair = 0
+        self._heal()
         P = 0.5 * (self._P + np.swapaxes(self._P, 1, 2))
         d = np.einsum("nii->ni", P)
         np.maximum(d, 1e-14, out=d)
@@ -291,6 +297,33 @@ class MMAEEstimator(Estimator):
             P[:, a, b] = c
             P[:, b, a] = c
         self._P = P
+
+    def _heal(self) -> bool:
+        """Restart every model whose state or covariance is no longer finite; True if one was.
+
+        Inputs are gated (:class:`~estimators.input_limits.InputLimits`), so this is a last line of defence: a
+        restarted model takes the prior slope and curvature around the bank's finite speed, and its probability
+        is kept (a NaN log-probability restarts all of them uniform).
+        """
+        bad = ~(np.isfinite(self._x).all(axis=1) & np.isfinite(self._P).all(axis=(1, 2)))
+        lp_bad = not np.isfinite(self._log_prob).all()
+        if not bad.any() and not lp_bad:
+            return False
+        good_v = self._x[~bad, 0]
+        self._x[bad] = 0.0
+        self._x[bad, 0] = float(good_v.mean()) if good_v.size else 0.0
+        self._P[bad] = np.diag([self._p0_v, self._p0_th, self._p0_kappa])
+        if lp_bad:
+            self._log_prob = np.full(self.n_models, -math.log(self.n_models))
+        return True
+
+    def _finish(self) -> Estimate:
+        e = self._mixture()
+        if not all(map(math.isfinite, (e.mass_kg, e.slope_rad, e.mass_std_kg, e.slope_std_rad))):
+            self._heal()
+            e = self._mixture()
+        self._estimate = e
+        return e
 
     def update(
         self,
@@ -302,8 +335,18 @@ class MMAEEstimator(Estimator):
         gyro_radps: float = math.nan,
         accel_normal_mps2: float = math.nan,
     ) -> Estimate:
-        """Process one sample; NaN inputs are treated as missing (``accel_mps2`` is the specific force)."""
+        """Process one sample; NaN inputs are treated as missing (``accel_mps2`` is the specific force).
+
+        A value beyond :class:`~estimators.input_limits.InputLimits` (``inf``, ``1e300``) counts as missing too. A
+        ``dt_s`` above :data:`~estimators.filters.MAX_STEP_S` is a data gap: the bank predicts over that long.
+        Raises ``ValueError`` for a ``dt_s`` that is NaN, infinite or negative.
+        """
         check_dt_non_negative(dt_s, "mmae")
+        dt_s = min(dt_s, MAX_STEP_S)
+        lim = self._limits
+        torque_nm = plausible(torque_nm, lim.torque_nm)
+        speed_mps = plausible(speed_mps, lim.speed_mps)
+        accel_mps2 = plausible(accel_mps2, lim.accel_mps2)
         have_v = math.isfinite(speed_mps)
         have_f = math.isfinite(accel_mps2)
         have_t = math.isfinite(torque_nm)
@@ -327,8 +370,7 @@ class MMAEEstimator(Estimator):
         # with the torque missing the measurement model is unknown: predict only
         if not have_t:
             self._condition()
-            self._estimate = self._mixture()
-            return self._estimate
+            return self._finish()
         n = self.n_models
         loglik = np.zeros(n)
         nis = np.zeros(n)
@@ -360,8 +402,7 @@ class MMAEEstimator(Estimator):
             p /= p.sum()
             np.maximum(p, self._floor, out=p)
             self._log_prob = np.log(p / p.sum())
-        self._estimate = self._mixture()
-        return self._estimate
+        return self._finish()
 
     def _mixture(self) -> Estimate:
         prob = np.exp(self._log_prob)

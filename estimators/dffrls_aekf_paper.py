@@ -32,7 +32,7 @@ written in Joseph form (equal to the printed ``(I − K H) P`` for the optimal g
 or beyond any physical value (|T| > 10× the maximum drive torque, |v| > 50 m/s, |a| > 50 m/s²) count as missing;
 ``dt`` NaN/zero/negative ignores the sample and a ``dt`` above :data:`~estimators.filters.MAX_STEP_S` is cut to
 it; the reported mass ``1/χ₁`` (which can be negative or infinite) is clipped to the vehicle's mass range, and the
-slope layer uses that reported mass; a layer whose state still became non-finite restarts from its prior.
+slope layer uses that reported mass; the reported slope is clipped to ±45°; a layer whose state still became non-finite restarts from its prior.
 """
 
 from __future__ import annotations
@@ -46,6 +46,9 @@ from .base import Estimate, Estimator
 from .filters import effective_dt, kalman_update_2x2_h1, repair_pd_2x2
 
 __all__ = ["DFFRLSAEKFPaper"]
+
+_SLOPE_OUT = math.pi / 4.0
+"""The reported slope is clipped to ±45° (a guard: the printed filter's θ is unbounded)."""
 
 
 class DFFRLSAEKFPaper(Estimator):
@@ -213,9 +216,10 @@ class DFFRLSAEKFPaper(Estimator):
         dt = effective_dt(dt_s)
         if dt == 0.0:
             return self.estimate
-        T = torque_nm if abs(torque_nm) <= self.max_torque else math.nan
-        z = speed_mps if abs(speed_mps) <= 50.0 else math.nan
-        a = accel_mps2 if abs(accel_mps2) <= 50.0 else math.nan
+        T, z, a = float(torque_nm), float(speed_mps), float(accel_mps2)
+        T = T if abs(T) <= self.max_torque else math.nan
+        z = z if abs(z) <= 50.0 else math.nan
+        a = a if abs(a) <= 50.0 else math.nan
         if T == T and a == a:
             self._dffrls(T, a)
         self._aekf(z, dt, self.mass_kg)
@@ -228,5 +232,6 @@ class DFFRLSAEKFPaper(Estimator):
         m = self.mass_kg
         # σ of 1/χ₁ propagated to M (first order), bounded by the mass range
         m_std = min(m * m * math.sqrt(self.C11), self.m_max - self.m_min)
-        return Estimate(m, self.th, m_std, math.sqrt(self.P22))
+        th = min(max(self.th, -_SLOPE_OUT), _SLOPE_OUT)
+        return Estimate(m, th, m_std, math.sqrt(self.P22))
 

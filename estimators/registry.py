@@ -20,7 +20,7 @@ _REGISTRY: dict[str, str] = {
     "dffrls": "estimators.rls:DFFRLSMassEstimator",
     "ekf": "estimators.ekf:JointEKF",
     "rls-ekf": "estimators.two_layer:RLSEKF",
-    "dffrls-aekf": "estimators.dffrls_aekf:DFFRLSAEKF",
+    "dffrls-aekf": "estimators.dffrls_aekf:DFFRLSAEKF",  # the project's variant, env default
     "dffrls-aekf-paper": "estimators.dffrls_aekf_paper:DFFRLSAEKFPaper",
     # improvement on paper 000: uses the accelerometer's specific force (issue 3)
     "sf-kf": "estimators.specific_force:SpecificForceKF",

@@ -41,6 +41,11 @@ Two gates keep the probabilities from learning from data that carry no payload i
 the probabilities are frozen when the drive force ``T/r`` is below ``min_traction_n`` (coasting or braking: the
 brake cars act with a force that is not measured) or the train is at standstill, and when even the best model's
 normalised innovation squared exceeds ``gate_nis`` (spikes, faults). The filters' states are still updated.
+
+Bad input: NaN and physically impossible values (:class:`~estimators.input_limits.InputLimits`: ``inf``,
+``1e300``) are missing samples; a ``dt`` above :data:`~estimators.filters.MAX_STEP_S` is a gap predicted over that
+long; a model whose state stops being finite is restarted. The tuning is :class:`~estimators.mmae_config.MMAEConfig`;
+the per-model arithmetic is one compiled loop in :mod:`estimators.mmae_kernel`.
 """
 
 from __future__ import annotations
@@ -56,9 +61,9 @@ from .base import Estimate, Estimator
 from .config import split_options
 from .filters import MAX_STEP_S, check_dt_non_negative
 from .input_limits import InputLimits, plausible
+from . import mmae_kernel as _kernel
 from .mmae_config import MMAEConfig, MMAEConfigError
 
-_LOG_2PI = math.log(2.0 * math.pi)
 _REPAIR_EVERY = 50
 _SLOPE_TAU_S = 1.0  # low-pass of the model-free slope that feeds the rear-section slope history
 
@@ -135,7 +140,9 @@ class MMAEEstimator(Estimator):
         self._v_s = float(cfg.smooth_speed_mps)
         self._gate_nis = float(cfg.gate_nis)
         self._limits = InputLimits.for_vehicle(veh)
-        self._eye = np.broadcast_to(np.eye(3), (self.n_models, 3, 3)).copy()
+        self._consts = _kernel.pack_constants(self._inv_meff, self._gf, self._gf_mu, self._gr, self._gr_mu,
+                                              self.payloads_kg)
+        self._moments = np.empty(6)
         # half-spacing quantisation of the payload grid: the mixture cannot resolve finer than this
         spacing = self.payloads_kg[1] - self.payloads_kg[0]
         self._grid_var = spacing**2 / 12.0
@@ -216,68 +223,13 @@ class MMAEEstimator(Estimator):
             self._hist_last += 1
             self._hist[self._hist_last % self._hist_len] = slope_rad
 
-    def _gravity(self, th: np.ndarray, tanh_v: np.ndarray, th_rear: float) -> tuple[np.ndarray, np.ndarray]:
-        """Gravity + running resistance per unit effective mass of every model, and its derivative in theta."""
-        sin_f, cos_f = np.sin(th), np.cos(th)
-        grav = self._gf * sin_f + self._gf_mu * cos_f * tanh_v
-        d_th = self._gf * cos_f - self._gf_mu * sin_f * tanh_v
-        if math.isnan(th_rear):
-            return grav, d_th
-        return grav + self._gr * math.sin(th_rear) + self._gr_mu * math.cos(th_rear) * tanh_v, d_th
-
     def _predict(self, torque_nm: float, dt: float, held: bool, speed_abs: float) -> None:
-        x = self._x
-        v, th, kappa = x[:, 0], x[:, 1], x[:, 2]
-        phi = self._eye.copy()
-        if not held:
-            h = dt
-            th_rear = self._rear_slope()
-            sin_f, cos_f = np.sin(th), np.cos(th)
-            drive = (torque_nm / self._radius) * self._inv_meff - self._gf * sin_f
-            res = self._gf_mu * cos_f
-            if not math.isnan(th_rear):
-                drive = drive - self._gr * math.sin(th_rear)
-                res = res + self._gr_mu * math.cos(th_rear)
-            inv_vs = 1.0 / self._v_s
-            # fixed-step RK4 of the speed equation (v-dependent through the smooth resistance); over one 5 ms step
-            # the slope is held, then advanced by kappa times the distance travelled (exact for linear v)
-            k1 = drive - res * np.tanh(v * inv_vs)
-            k2 = drive - res * np.tanh((v + 0.5 * h * k1) * inv_vs)
-            k3 = drive - res * np.tanh((v + 0.5 * h * k2) * inv_vs)
-            k4 = drive - res * np.tanh((v + h * k3) * inv_vs)
-            v_new = v + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-            # first-order transition matrix of the linearised model at the prior
-            tanh_v = np.tanh(v * inv_vs)
-            phi[:, 0, 0] += h * (-res * (1.0 - tanh_v * tanh_v) * inv_vs)
-            phi[:, 0, 1] = -h * (self._gf * cos_f - self._gf_mu * sin_f * tanh_v)
-            phi[:, 1, 0] = h * kappa
-            phi[:, 1, 2] = h * v
-            x[:, 1] = th + kappa * (0.5 * h) * (v + v_new)
-            x[:, 0] = v_new
-        # else: held at rest (parking brake / static friction): no motion, only the process noise
-        P = np.matmul(np.matmul(phi, self._P), np.swapaxes(phi, 1, 2))
-        P[:, 0, 0] += self._q_v * dt
-        P[:, 1, 1] += self._q_th_floor * dt
-        P[:, 2, 2] += self._q_kappa_per_m * speed_abs * dt
-        self._P = P
-
-    def _scalar_update(self, resid: np.ndarray, h: np.ndarray | None, r: float) -> tuple[np.ndarray, np.ndarray]:
-        """Scalar EKF update of every model with measurement row ``h`` (n, 3; None = the speed row [1, 0, 0]).
-
-        Returns the log-likelihood and the normalised innovation squared of every model.
-        """
-        P = self._P
-        if h is None:  # the speed row [1, 0, 0]
-            g = P[:, :, 0].copy()
-            s = g[:, 0] + r
-        else:
-            g = np.matmul(P, h[:, :, None])[:, :, 0]
-            s = (h * g).sum(axis=1) + r
-        k = g / s[:, None]
-        self._x += k * resid[:, None]
-        self._P = P - k[:, :, None] * g[:, None, :]
-        nis = resid * resid / s
-        return -0.5 * (nis + np.log(s) + _LOG_2PI), nis
+        # fixed-step RK4 of the speed equation (v-dependent through the smooth resistance); over one step the slope
+        # is held, then advanced by kappa times the distance travelled (exact for linear v). Held at rest (parking
+        # brake / static friction): no motion, only the process noise.
+        th_rear = math.nan if held else self._rear_slope()
+        _kernel.predict(self._x, self._P, self._consts, torque_nm, dt, held, speed_abs, th_rear, self._radius,
+                        1.0 / self._v_s, self._q_v, self._q_th_floor, self._q_kappa_per_m)
 
     def _condition(self) -> None:
         # Both the prediction (Phi P Phi^T + Q) and the update (P - g g^T / s) are symmetric by construction;
@@ -371,56 +323,26 @@ class MMAEEstimator(Estimator):
         if not have_t:
             self._condition()
             return self._finish()
-        n = self.n_models
-        loglik = np.zeros(n)
-        nis = np.zeros(n)
-        if have_v:
-            ll, n1 = self._scalar_update(speed_mps - self._x[:, 0], None, self._r_v)
-            loglik += ll
-            nis += n1
-        if have_f:
-            v, th = self._x[:, 0], self._x[:, 1]
-            tanh_v = np.tanh(v / self._v_s)
-            grav, d_th = self._gravity(th, tanh_v, th_rear)
-            f_pred = (torque_nm / self._radius) * self._inv_meff - grav + G_MPS2 * np.sin(th)
-            res = self._gf_mu * np.cos(th)
-            if not math.isnan(th_rear):
-                res = res + self._gr_mu * math.cos(th_rear)
-            h = np.zeros((n, 3))
-            h[:, 0] = -res * (1.0 - tanh_v * tanh_v) / self._v_s
-            h[:, 1] = G_MPS2 * np.cos(th) - d_th
-            ll, n2 = self._scalar_update(accel_mps2 - f_pred, h, self._r_f)
-            loglik += ll
-            nis += n2
-        self._condition()
         informative = (
             have_v and have_f and not held and abs(torque_nm) / self._radius >= self._min_traction_n
         )
-        if informative and float(nis.min()) <= self._gate_nis:
-            lp = self._log_prob + loglik
-            p = np.exp(lp - lp.max())
-            p /= p.sum()
-            np.maximum(p, self._floor, out=p)
-            self._log_prob = np.log(p / p.sum())
+        _kernel.correct(self._x, self._P, self._log_prob, self._consts, torque_nm, speed_mps, accel_mps2, have_v,
+                        have_f, th_rear, self._radius, self._v_s, self._r_v, self._r_f, informative, self._gate_nis,
+                        self._floor)
+        self._condition()
         return self._finish()
 
     def _mixture(self) -> Estimate:
-        prob = np.exp(self._log_prob)
-        payload = float(prob @ self.payloads_kg)
-        dp = self.payloads_kg - payload
-        payload_var = float(prob @ (dp * dp)) + self._grid_var
+        out = self._moments
+        _kernel.mixture(self._x, self._P, self._log_prob, self._consts, out)
+        payload, payload_var, slope, slope_var, speed, p_max = out.tolist()
         # the slope at the accelerometer = the train's reference point (the plant's truth convention)
-        th = self._x[:, 1]
-        slope = float(prob @ th)
-        dth = th - slope
-        slope_var = float(prob @ (self._P[:, 1, 1] + dth * dth))
-        speed = float(prob @ self._x[:, 0])
         return Estimate(
             mass_kg=self.vehicle.empty_mass_kg + payload,
             slope_rad=slope,
-            mass_std_kg=math.sqrt(payload_var),
+            mass_std_kg=math.sqrt(payload_var + self._grid_var),
             slope_std_rad=math.sqrt(max(slope_var, 0.0)),
-            extras={"speed_mps": speed, "model_prob_max": float(prob.max())},
+            extras={"speed_mps": speed, "model_prob_max": p_max},
         )
 
     def mixture_covariance(self) -> np.ndarray:

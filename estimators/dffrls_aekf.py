@@ -110,14 +110,16 @@ class DFFRLSAEKFConfig:
     # mass layer
     delta: float = 0.95
     sigma: float = 5.0
-    residual_std_mps2: float = 0.1
+    residual_std_mps2: float = 0.03
     prior_mass_kg: float | None = None
     running_resistance: float | None = None
-    mu_prior_std: float = 0.01
+    mu_prior_std: float = 0.05
     mu_max: float = 0.1
     sway_damping_ratio: float = 0.05
     hook_mass_kg: float = 300.0
     min_speed_mps: float = 0.05
+    min_accel_mps2: float = 0.05
+    offset_forgetting_ratio: float = 1.0
     min_traction_fraction: float = 0.02
     settle_s: float = 1.0
     slope_ready_std_rad: float = math.radians(1.0)
@@ -130,7 +132,7 @@ class DFFRLSAEKFConfig:
                     "gate_sigma", "history_step_m", "sigma", "residual_std_mps2", "mu_prior_std", "mu_max",
                     "slope_ready_std_rad", "gap_s", "dt_nominal_s", "max_slope_spread_rad")
         non_negative = ("chain_length_m", "mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio",
-                        "hook_mass_kg", "min_speed_mps", "min_traction_fraction", "settle_s", "relock_after")
+                        "hook_mass_kg", "min_speed_mps", "min_accel_mps2", "offset_forgetting_ratio", "min_traction_fraction", "settle_s", "relock_after")
         for name in positive + non_negative:
             x = getattr(self, name)
             if isinstance(x, bool) or not isinstance(x, (int, float)) or math.isnan(x) or (
@@ -180,6 +182,8 @@ class DFFRLSAEKFConfig:
         C[kern.SWAY_DAMP] = 2.0 * self.sway_damping_ratio * math.sqrt(G_MPS2 * self.chain_length_m)
         C[kern.SWAY_H] = 0.5 * math.sqrt(self.chain_length_m / G_MPS2) if self.chain_length_m > 0 else 1.0
         C[kern.MIN_SPEED] = self.min_speed_mps
+        C[kern.MIN_ACC] = self.min_accel_mps2
+        C[kern.OFF_FORGET] = self.offset_forgetting_ratio
         C[kern.MIN_FORCE] = self.min_traction_fraction * v.max_traction_n
         C[kern.SETTLE_S] = self.settle_s
         # torque may step with the driver's command; speed may not jump (a <= ~3 m/s^2); specific force <= 3 g

@@ -94,7 +94,9 @@ MAX_SPREAD = 51
 READY_VAR = 52
 Q_C = 53
 C0 = 54
-N_C = 55
+MIN_ACC = 55
+OFF_FORGET = 56
+N_C = 57
 # --- state S ------------------------------------------------------------------------------------------------------
 V = 0
 TH = 1
@@ -331,13 +333,15 @@ def step(S, H, C, torque, speed, accel, dt):
         if v == v and v > 0.0:
             S[DIST] += v * dt
         if S[MOVED] == 0.0:
-            # not moved yet: the track behind is unknown, take the slope the train stands on
+            # not moved yet: the track behind is unknown, take the slope the train stands on, until the slope
+            # layer has settled and the train has moved one history step (a start-up transient of theta must not
+            # be frozen into the history for a whole train length)
             for j in range(n_hist):
                 H[j] = th
             S[HSUM] = n_hist * th
             S[HEAD] = 0.0
             S[NEXT_S] = S[DIST] + C[HIST_DS]
-            if S[DIST] > 0.0:
+            if S[DIST] > C[HIST_DS] and S[P22] < C[READY_VAR]:
                 S[MOVED] = 1.0
         n_push = 0
         while S[DIST] >= S[NEXT_S] and n_push < n_hist:  # bounded: a huge step refills the buffer at most once
@@ -412,7 +416,7 @@ def step(S, H, C, torque, speed, accel, dt):
     #   (F - m_rot a - M_rigid (a - a_load)) / M_ref = [a_load + g sin th_train, g cos th_train] . [c, d]
     y = (F - C[M_ROT] * acc_f - C[M_RIGID] * (acc_f - a_load_f)) / C[M_REF]
     h1 = a_load_f + g * sin_lp
-    h2 = g * cos_lp
+    h2 = g * cos_lp if C[OFF_FORGET] == 0.0 else g
     c, dd = S[MC], S[MD]
     pc, pcd, pd = S[PC] + C[Q_C], S[PCD], S[PD]
     if C[EST_MU] == 0.0:
@@ -422,8 +426,19 @@ def step(S, H, C, torque, speed, accel, dt):
     e = y - h1 * c - h2 * dd
     lam = C[DELTA] + (1.0 - C[DELTA]) * math.exp(-C[SIGMA] * abs(e))
     lam_m = 1.0 - C[MASS_FORGET] * (1.0 - lam)
+    if C[OFF_FORGET] > 0.0:
+        # offset mode: d is the train's resistance-and-slope offset, forgotten faster than the mass (vector
+        # forgetting), each variance bounded by its prior (no wind-up)
+        lam_d = 1.0 - C[OFF_FORGET] * (1.0 - lam)
+        if pc / lam_m >= C[P0_C]:
+            lam_m = 1.0
+        if pd / lam_d >= C[P0_D]:
+            lam_d = 1.0
+        pc /= lam_m
+        pd /= lam_d
+        pcd /= math.sqrt(lam_m * lam_d)
     # forgetting in covariance form, never above the prior variance (no wind-up)
-    if pc / lam_m < C[P0_C] and pd / lam_m < C[P0_D]:
+    elif pc / lam_m < C[P0_C] and pd / lam_m < C[P0_D]:
         pc /= lam_m
         pcd /= lam_m
         pd /= lam_m
@@ -432,18 +447,30 @@ def step(S, H, C, torque, speed, accel, dt):
     s_m = C[R_M] + h1 * ph1 + h2 * ph2
     if use_rate and e * e > 100.0 * s_m:  # a gross outlier that passed the input gates
         return
-    k1 = ph1 / s_m
     k2 = ph2 / s_m
-    c += k1 * e
-    dd += k2 * e
-    pc -= k1 * ph1
-    pcd -= k1 * ph2
-    pd -= k2 * ph2
+    if abs(a_load_f) < C[MIN_ACC]:
+        # no acceleration: the mass is only a considered parameter (Schmidt update, zero gain, its variance kept);
+        # at constant speed a slope error of the upper layer would otherwise be read as mass
+        dd += k2 * e
+        pcd -= k2 * ph1
+        pd -= k2 * ph2
+    else:
+        k1 = ph1 / s_m
+        c += k1 * e
+        dd += k2 * e
+        pc -= k1 * ph1
+        pcd -= k1 * ph2
+        pd -= k2 * ph2
     pc, pcd, pd = _repair(pc, pcd, pd, 1e-14, 1e-16)
     S[PC], S[PCD], S[PD] = pc, pcd, pd
     c = min(max(c, C[C_MIN]), C[C_MAX])
     S[MC] = c
-    S[MD] = C[MU0] * c if C[EST_MU] == 0.0 else min(max(dd, 0.0), C[MU_MAX] * c)
+    if C[EST_MU] == 0.0:
+        S[MD] = C[MU0] * c
+    elif C[OFF_FORGET] > 0.0:  # the offset also holds the slope error of the upper layer: either sign
+        S[MD] = min(max(dd, -C[MU_MAX] * c), C[MU_MAX] * c)
+    else:
+        S[MD] = min(max(dd, 0.0), C[MU_MAX] * c)
     S[RES_VAR] += 0.002 * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
     S[LAMBDA] = lam
     S[N_MASS] += 1.0

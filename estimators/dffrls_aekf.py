@@ -120,6 +120,9 @@ class DFFRLSAEKFConfig:
     min_speed_mps: float = 0.05
     min_accel_mps2: float = 0.05
     offset_forgetting_ratio: float = 1.0
+    fused: bool = False
+    accel_bias_std_mps2: float = 0.02
+    blend_prior_std: float = 0.5
     min_traction_fraction: float = 0.02
     settle_s: float = 1.0
     slope_ready_std_rad: float = math.radians(1.0)
@@ -132,7 +135,8 @@ class DFFRLSAEKFConfig:
                     "gate_sigma", "history_step_m", "sigma", "residual_std_mps2", "mu_prior_std", "mu_max",
                     "slope_ready_std_rad", "gap_s", "dt_nominal_s", "max_slope_spread_rad")
         non_negative = ("chain_length_m", "mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio",
-                        "hook_mass_kg", "min_speed_mps", "min_accel_mps2", "offset_forgetting_ratio", "min_traction_fraction", "settle_s", "relock_after")
+                        "hook_mass_kg", "min_speed_mps", "min_accel_mps2", "offset_forgetting_ratio", "accel_bias_std_mps2",
+                        "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after")
         for name in positive + non_negative:
             x = getattr(self, name)
             if isinstance(x, bool) or not isinstance(x, (int, float)) or math.isnan(x) or (
@@ -184,6 +188,11 @@ class DFFRLSAEKFConfig:
         C[kern.MIN_SPEED] = self.min_speed_mps
         C[kern.MIN_ACC] = self.min_accel_mps2
         C[kern.OFF_FORGET] = self.offset_forgetting_ratio
+        C[kern.FUSED] = float(bool(self.fused))
+        if self.fused and not (self.offset_forgetting_ratio > 0.0 and self.estimate_mu):
+            raise ValueError("dffrls-aekf: fused needs offset_forgetting_ratio > 0 and estimate_mu")
+        C[kern.P0_B] = (self.blend_prior_std * c0) ** 2
+        C[kern.BIAS_VAR] = self.accel_bias_std_mps2**2
         C[kern.MIN_FORCE] = self.min_traction_fraction * v.max_traction_n
         C[kern.SETTLE_S] = self.settle_s
         # torque may step with the driver's command; speed may not jump (a <= ~3 m/s^2); specific force <= 3 g
@@ -251,7 +260,7 @@ class DFFRLSAEKF(Estimator):
         self.C = self.config.settings(self.vehicle)
         self.S = np.zeros(kern.N_S)
         self.H = np.zeros(kern.N_HIST_MAX)
-        self._out = np.zeros(6)
+        self._out = np.zeros(7)
         self.reset()
 
     def reset(self) -> None:
@@ -267,7 +276,10 @@ class DFFRLSAEKF(Estimator):
     def estimate(self) -> Estimate:
         o = self._out
         kern.estimate(self.S, self.C, o)
-        return Estimate(float(o[0]), float(o[1]), float(o[2]), float(o[3]), {"mu": float(o[4]), "mu_std": float(o[5])})
+        extras = {"mu": float(o[4]), "mu_std": float(o[5])}
+        if self.config.fused:
+            extras["gravity_weight_sensor"] = float(o[6])
+        return Estimate(float(o[0]), float(o[1]), float(o[2]), float(o[3]), extras)
 
     def run(self, trace: Trace, reset: bool = True) -> EstimateSeries:
         """The whole trace in one compiled loop; the same results as calling :meth:`update` per sample."""
@@ -276,11 +288,14 @@ class DFFRLSAEKF(Estimator):
         t = np.ascontiguousarray(trace["t_s"], dtype=np.float64)
         n = len(t)
         dts = np.diff(t, prepend=t[0] - (t[1] - t[0] if n > 1 else 0.005))
-        out = np.empty((n, 6))
+        out = np.empty((n, 7))
         col = [np.ascontiguousarray(trace[k], dtype=np.float64) for k in ("torque_nm", "speed_mps", "accel_mps2")]
         kern.run(self.S, self.H, self.C, col[0], col[1], col[2], dts, out)
+        extras = {"mu": out[:, 4].copy(), "mu_std": out[:, 5].copy()}
+        if self.config.fused:
+            extras["gravity_weight_sensor"] = out[:, 6].copy()
         return EstimateSeries(t.copy(), out[:, 0].copy(), out[:, 1].copy(), out[:, 2].copy(), out[:, 3].copy(),
-                              {"mu": out[:, 4].copy(), "mu_std": out[:, 5].copy()})
+                              extras)
 
     # views for tests and diagnostics ---------------------------------------------------------------------------
     @property

@@ -96,7 +96,10 @@ Q_C = 53
 C0 = 54
 MIN_ACC = 55
 OFF_FORGET = 56
-N_C = 57
+FUSED = 57
+P0_B = 58
+BIAS_VAR = 59
+N_C = 60
 # --- state S ------------------------------------------------------------------------------------------------------
 V = 0
 TH = 1
@@ -158,7 +161,16 @@ MOVED = 56
 TH_TRAIN = 57
 SPREAD = 58
 N_GAPS = 59
-N_S = 60
+TH_WIN = 60
+LL1 = 61
+LL2 = 62
+LL_OK = 63
+MB = 64
+PB = 65
+PCB = 66
+PDB = 67
+DIST0 = 68
+N_S = 69
 N_HIST_MAX = 512
 
 
@@ -216,13 +228,15 @@ def reset(S, H, C):
     S[PD] = C[P0_D]
     S[RES_VAR] = C[R_M]
     S[LAMBDA] = 1.0
+    S[MB] = 0.5 * c0  # fused: beta = c alpha, alpha = 0.5 (weight of the slope under the sensors) a priori
+    S[PB] = C[P0_B]
     H[:] = 0.0
 
 
 @njit(cache=True)
 def _restart_signals(S, H):
     """After a data gap: the filters' held states no longer describe the motion."""
-    for i in (LF_OK, LV_OK, LQ_OK, LA_OK, LS_OK, LC_OK):
+    for i in (LF_OK, LV_OK, LQ_OK, LA_OK, LS_OK, LC_OK, LL_OK):
         S[i] = 0.0
     S[PREV_VF] = math.nan
     S[PREV_VQ] = math.nan
@@ -343,6 +357,7 @@ def step(S, H, C, torque, speed, accel, dt):
             S[NEXT_S] = S[DIST] + C[HIST_DS]
             if S[DIST] > C[HIST_DS] and S[P22] < C[READY_VAR]:
                 S[MOVED] = 1.0
+                S[DIST0] = S[DIST]
         n_push = 0
         while S[DIST] >= S[NEXT_S] and n_push < n_hist:  # bounded: a huge step refills the buffer at most once
             hd = int(S[HEAD])
@@ -360,10 +375,17 @@ def step(S, H, C, torque, speed, accel, dt):
             S[HSUM] = acc_sum
         oldest = H[int(S[HEAD])]
         S[SPREAD] = abs(th - oldest)
-        S[TH_TRAIN] = (th + S[HSUM]) / (n_hist + 1)
+        S[TH_WIN] = (th + S[HSUM]) / (n_hist + 1)
     else:
-        S[TH_TRAIN] = th
+        S[TH_WIN] = th
         S[SPREAD] = 0.0
+    if C[FUSED] != 0.0:
+        # fused: the slope gravity acts on is a blend of the slope under the sensors and the window behind them,
+        # with the weight alpha = beta / c learned from the force balance (1 for a point mass)
+        al = min(max(S[MB] / S[MC], 0.0), 1.0)
+        S[TH_TRAIN] = al * th + (1.0 - al) * S[TH_WIN]
+    else:
+        S[TH_TRAIN] = S[TH_WIN]
 
     # ---------------- regression front end: F = T/r, v, dv/dt, the swinging load --------------------------------
     a = 1.0 - math.exp(-2.0 * math.pi * C[CUT_HZ] * dt)
@@ -375,9 +397,15 @@ def step(S, H, C, torque, speed, accel, dt):
     S[PREV_VF] = vf
     acc_f = (vf - prev) / dt if prev == prev else 0.0
     S[ACC_F] = acc_f
-    th_train = S[TH_TRAIN]
-    sin_lp = _lp(S, LS1, math.sin(th_train), a)
-    cos_lp = _lp(S, LC1, math.cos(th_train), a)
+    if C[FUSED] != 0.0:
+        sin_lp = _lp(S, LS1, math.sin(S[TH_WIN]), a)
+        sin_loc_lp = _lp(S, LL1, math.sin(S[TH]), a)
+        cos_lp = 1.0
+    else:
+        th_train = S[TH_TRAIN]
+        sin_lp = _lp(S, LS1, math.sin(th_train), a)
+        cos_lp = _lp(S, LC1, math.cos(th_train), a)
+        sin_loc_lp = sin_lp
     if C[CHAIN_L] > 0.0:
         # the load hangs on chains: a pendulum forced by the train's acceleration (semi-implicit Euler; dt is at
         # most GAP_S here, so the sub-step count is bounded)
@@ -408,13 +436,18 @@ def step(S, H, C, torque, speed, accel, dt):
         if S[T_MISSING] > 0.1:
             S[T_VALID] = 0.0
     valid = (raw_ok and S[LF_OK] != 0.0 and S[T_VALID] > C[SETTLE_S] and vf > C[MIN_SPEED] and F > C[MIN_FORCE]
-             and S[P22] < C[READY_VAR] and S[SPREAD] < C[MAX_SPREAD])
+             and S[P22] < C[READY_VAR] and (S[SPREAD] < C[MAX_SPREAD] or C[FUSED] != 0.0))
     if not valid:
+        return
+    y = (F - C[M_ROT] * acc_f - C[M_RIGID] * (acc_f - a_load_f)) / C[M_REF]
+    if C[FUSED] != 0.0:
+        # the blend is learned only once the window holds slopes measured on the way (not the start-up guess)
+        learn_b = S[MOVED] != 0.0 and S[DIST] - S[DIST0] > C[N_HIST] * C[HIST_DS]
+        _fused_mass_step(S, C, y, a_load_f, sin_lp, sin_loc_lp, use_rate, learn_b)
         return
 
     # ---------------- mass layer: DFFRLS on the specific-force regression ----------------------------------------
     #   (F - m_rot a - M_rigid (a - a_load)) / M_ref = [a_load + g sin th_train, g cos th_train] . [c, d]
-    y = (F - C[M_ROT] * acc_f - C[M_RIGID] * (acc_f - a_load_f)) / C[M_REF]
     h1 = a_load_f + g * sin_lp
     h2 = g * cos_lp if C[OFF_FORGET] == 0.0 else g
     c, dd = S[MC], S[MD]
@@ -477,26 +510,107 @@ def step(S, H, C, torque, speed, accel, dt):
 
 
 @njit(cache=True)
+def _fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
+    """Fused observer's regression on three parameters ``[c, o, beta]`` (c = M/M_ref, o = resistance-and-bias
+    offset, beta = c alpha, alpha = weight of the slope under the sensors in the slope gravity acts on)::
+
+        y = c (a_load + g sin th_win) + o g + beta g (sin th_loc - sin th_win)
+
+    Vector forgetting (c and beta: constants of a run; o: the dynamic lambda), c only from accelerations (Schmidt
+    update otherwise), covariance bounded by the prior and repaired to symmetric PD."""
+    g = G_MPS2
+    h1 = a_l + g * sin_win
+    h2 = g
+    h3 = g * (sin_loc - sin_win)
+    c, o, b = S[MC], S[MD], S[MB]
+    p11, p12, p22 = S[PC] + C[Q_C], S[PCD], S[PD]
+    p13, p23, p33 = S[PCB], S[PDB], S[PB] + C[Q_C]
+    e = y - h1 * c - h2 * o - h3 * b
+    lam = C[DELTA] + (1.0 - C[DELTA]) * math.exp(-C[SIGMA] * abs(e))
+    lm = 1.0 - C[MASS_FORGET] * (1.0 - lam)
+    ld = 1.0 - C[OFF_FORGET] * (1.0 - lam)
+    lb = lm
+    if p11 / lm >= C[P0_C]:
+        lm = 1.0
+    if p22 / ld >= C[P0_D]:
+        ld = 1.0
+    if p33 / lb >= C[P0_B]:
+        lb = 1.0
+    p11 /= lm
+    p22 /= ld
+    p33 /= lb
+    p12 /= math.sqrt(lm * ld)
+    p13 /= math.sqrt(lm * lb)
+    p23 /= math.sqrt(ld * lb)
+    q1 = p11 * h1 + p12 * h2 + p13 * h3
+    q2 = p12 * h1 + p22 * h2 + p23 * h3
+    q3 = p13 * h1 + p23 * h2 + p33 * h3
+    s_m = C[R_M] + h1 * q1 + h2 * q2 + h3 * q3
+    if use_rate and e * e > 100.0 * s_m:
+        return
+    consider = abs(a_l) < C[MIN_ACC]
+    if not consider:
+        c += q1 / s_m * e
+        p11 -= q1 * q1 / s_m
+    o += q2 / s_m * e
+    p12 -= q1 * q2 / s_m
+    p13 -= q1 * q3 / s_m
+    p22 -= q2 * q2 / s_m
+    p23 -= q2 * q3 / s_m
+    if learn_b:  # else beta is a considered parameter too (zero gain, variance kept)
+        b += q3 / s_m * e
+        p33 -= q3 * q3 / s_m
+    # PD repair: floors on the diagonal, then shrink the correlations until every leading minor is positive
+    p11 = p11 if p11 >= 1e-14 else 1e-14
+    p22 = p22 if p22 >= 1e-16 else 1e-16
+    p33 = p33 if p33 >= 1e-14 else 1e-14
+    if not (abs(p12) < math.inf and abs(p13) < math.inf and abs(p23) < math.inf):
+        p12 = p13 = p23 = 0.0
+    for _ in range(60):
+        m2 = p11 * p22 - p12 * p12
+        det = p11 * (p22 * p33 - p23 * p23) - p12 * (p12 * p33 - p23 * p13) + p13 * (p12 * p23 - p22 * p13)
+        if m2 > 1e-6 * p11 * p22 and det > 1e-9 * p11 * p22 * p33:
+            break
+        p12 *= 0.7
+        p13 *= 0.7
+        p23 *= 0.7
+    S[PC], S[PCD], S[PD], S[PCB], S[PDB], S[PB] = p11, p12, p22, p13, p23, p33
+    c = min(max(c, C[C_MIN]), C[C_MAX])
+    S[MC] = c
+    S[MD] = min(max(o, -C[MU_MAX] * c), C[MU_MAX] * c)
+    S[MB] = min(max(b, -0.2 * c), 1.2 * c)
+    S[RES_VAR] += 0.002 * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
+    S[LAMBDA] = lam
+    S[N_MASS] += 1.0
+
+
+@njit(cache=True)
 def estimate(S, C, out):
-    """Write (mass, slope, mass_std, slope_std, mu, mu_std) into ``out``."""
+    """Write (mass, slope, mass_std, slope_std, mu, mu_std, alpha) into ``out`` (alpha: fused only, else 0)."""
     c = S[MC]
     infl = max(1.0, S[RES_VAR] / C[R_M])
     out[0] = c * C[M_REF]
     out[1] = S[TH_TRAIN]
     out[2] = math.sqrt(S[PC] * infl) * C[M_REF]
-    out[3] = math.sqrt(S[P22])
+    var_th = S[P22]
+    if C[FUSED] != 0.0:
+        # + the accelerometer bias (not separable from the resistance, so never learned) + the blend weight
+        d_th = S[TH] - S[TH_WIN]
+        var_th += C[BIAS_VAR] / (G_MPS2 * G_MPS2) + S[PB] / (c * c) * d_th * d_th
+    out[3] = math.sqrt(var_th)
     mu = S[MD] / c
     out[4] = mu
     var_mu = (S[PD] - 2.0 * mu * S[PCD] + mu * mu * S[PC]) / (c * c)
     out[5] = math.sqrt(max(var_mu * infl, 0.0))
+    out[6] = min(max(S[MB] / c, 0.0), 1.0) if C[FUSED] != 0.0 else 0.0
 
 
 @njit(cache=True)
 def run(S, H, C, torque, speed, accel, dts, out):
-    """The batch path: :func:`step` + :func:`estimate` over whole arrays; ``out`` has shape (n, 6)."""
-    row = np.empty(6)
+    """The batch path: :func:`step` + :func:`estimate` over whole arrays; ``out`` has shape (n, 7)."""
+    row = np.empty(7)
     for i in range(torque.shape[0]):
         step(S, H, C, torque[i], speed[i], accel[i], dts[i])
         estimate(S, C, row)
-        for j in range(6):
+        for j in range(7):
             out[i, j] = row[j]

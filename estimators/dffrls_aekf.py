@@ -305,6 +305,15 @@ class DFFRLSAEKF(Estimator):
         return np.array([[S[kern.P11], S[kern.P12]], [S[kern.P12], S[kern.P22]]])
 
     @property
+    def regression_P(self) -> np.ndarray:
+        """Covariance of the regression's parameters: ``[c, d]`` (2x2), or ``[c, o, β]`` (3x3) when ``fused``."""
+        S = self.S
+        if not self.config.fused:
+            return self.mass_P
+        return np.array([[S[kern.PC], S[kern.PCD], S[kern.PCB]], [S[kern.PCD], S[kern.PD], S[kern.PDB]],
+                         [S[kern.PCB], S[kern.PDB], S[kern.PB]]])
+
+    @property
     def mass_P(self) -> np.ndarray:
         """Covariance of the mass layer's ``[M/M_ref, μ M/M_ref]``."""
         S = self.S

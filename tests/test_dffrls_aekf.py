@@ -54,8 +54,9 @@ def test_registered_and_selectable() -> None:
         estimators.make("dffrls-aekf-paper", fading=1.0)
 
 
-def test_online_update_equals_batch_run(faulty: Trace) -> None:
-    est = estimators.make("dffrls-aekf")
+@pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])
+def test_online_update_equals_batch_run(name: str, faulty: Trace) -> None:
+    est = estimators.make(name)
     batch = _series_array(est.run(faulty))
     est.reset()
     t = faulty["t_s"]
@@ -68,9 +69,10 @@ def test_online_update_equals_batch_run(faulty: Trace) -> None:
 
 
 @pytest.mark.skipif(not kern.HAVE_NUMBA, reason="the reference comparison needs the compiled kernel")
-def test_compiled_kernel_matches_the_pure_python_reference(faulty: Trace, tmp_path) -> None:
+@pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])
+def test_compiled_kernel_matches_the_pure_python_reference(name: str, faulty: Trace, tmp_path) -> None:
     """The same kernel source run by the Python interpreter (``NUMBA_DISABLE_JIT=1``) is the reference."""
-    compiled = _series_array(estimators.make("dffrls-aekf").run(faulty))
+    compiled = _series_array(estimators.make(name).run(faulty))
     short = 6000  # the interpreter runs the kernel ~100x slower
     path = tmp_path / "ref.npy"
     code = (
@@ -79,9 +81,9 @@ def test_compiled_kernel_matches_the_pure_python_reference(faulty: Trace, tmp_pa
         "from uuom_core.trace import Trace\n"
         "d = np.load(%r)\n"
         "tr = Trace({k: d[k] for k in d.files})\n"
-        "s = estimators.make('dffrls-aekf').run(tr)\n"
+        "s = estimators.make(%r).run(tr)\n"
         "np.save(%r, np.c_[s.mass_kg, s.slope_rad, s.mass_std_kg, s.slope_std_rad, s.extras['mu'], s.extras['mu_std']])\n"
-    ) % (ROOT, str(tmp_path / "in.npz"), str(path))
+    ) % (ROOT, str(tmp_path / "in.npz"), name, str(path))
     np.savez(tmp_path / "in.npz", **{k: v[:short] for k, v in faulty.columns.items()})
     env = dict(os.environ, NUMBA_DISABLE_JIT="1")
     subprocess.run([sys.executable, "-c", code], check=True, env=env, cwd=ROOT, timeout=600)
@@ -89,7 +91,7 @@ def test_compiled_kernel_matches_the_pure_python_reference(faulty: Trace, tmp_pa
     np.testing.assert_allclose(compiled[:short], reference, rtol=1e-9, atol=1e-12)
 
 
-@pytest.mark.parametrize("name", ["dffrls-aekf", "dffrls-aekf-paper"])
+@pytest.mark.parametrize("name", ["dffrls-aekf", "dffrls-aekf-paper", "fused"])
 def test_faulty_data_never_gives_nan(name: str, faulty: Trace) -> None:
     est = estimators.make(name)
     s = est.run(faulty)
@@ -100,20 +102,22 @@ def test_faulty_data_never_gives_nan(name: str, faulty: Trace) -> None:
     assert np.all((s.mass_kg >= v.empty_mass_kg) & (s.mass_kg <= v.max_mass_kg))
 
 
-def test_covariances_stay_spd_per_sample(faulty: Trace) -> None:
-    est = estimators.make("dffrls-aekf")
+@pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])
+def test_covariances_stay_spd_per_sample(name: str, faulty: Trace) -> None:
+    est = estimators.make(name)
     t = faulty["t_s"]
     dts = np.diff(t, prepend=t[0] - 0.005)
     for i in range(0, len(t)):
         est.update(faulty["torque_nm"][i], faulty["speed_mps"][i], faulty["accel_mps2"][i], dts[i])
         if i % 7 == 0:
-            for P in (est.slope_P, est.mass_P):
+            for P in (est.slope_P, est.mass_P, est.regression_P):
                 assert np.all(np.isfinite(P)) and P[0, 1] == P[1, 0]
                 assert np.linalg.eigvalsh(P).min() > 0.0
 
 
-def test_huge_dt_and_stamps_do_not_hang_or_break() -> None:
-    est = estimators.make("dffrls-aekf")
+@pytest.mark.parametrize("name", ["dffrls-aekf", "dffrls-aekf-paper", "fused"])
+def test_huge_dt_and_stamps_do_not_hang_or_break(name: str) -> None:
+    est = estimators.make(name)
     for dt in (0.005, 1e300, math.inf, math.nan, -1.0, 0.0, 0.005, 50.0):
         e = est.update(3000.0, 0.5, 0.05, dt)
         assert math.isfinite(e.mass_kg) and math.isfinite(e.slope_rad)

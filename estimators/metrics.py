@@ -216,11 +216,11 @@ def consistency(
 
 
 def distribution(values) -> dict[str, float]:
-    """``median, p90, p95, max`` and the count of a per-run metric (NaN left out; inf kept: it ranks last)."""
+    """``median, p90, p95, max`` (nearest rank) and the count of a per-run metric (NaN left out; inf ranks last)."""
     v = np.asarray(list(values), dtype=float)
     v = v[~np.isnan(v)]
     if v.size == 0:
         return {"n": 0, "median": math.nan, "p90": math.nan, "p95": math.nan, "max": math.nan}
-    # 'higher' so a percentile is a value some run actually had (and inf survives)
-    q = np.percentile(v, [50, 90, 95], method="higher")
+    # nearest rank: a percentile is a value some run actually had (and inf survives)
+    q = np.percentile(v, [50, 90, 95], method="inverted_cdf")
     return {"n": int(v.size), "median": float(q[0]), "p90": float(q[1]), "p95": float(q[2]), "max": float(v.max())}

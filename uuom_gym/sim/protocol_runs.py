@@ -30,7 +30,7 @@ from uuom_core.limits import load_speed_limit_mps, max_climbable_grade_rad
 from uuom_core.trace import Trace
 from uuom_core.vehicle import DEFAULT_VEHICLE
 
-__all__ = ["FAULT_KINDS", "RunSpec", "make_run", "protocol_runs"]
+__all__ = ["FAULT_KINDS", "RunSpec", "make_run", "protocol_runs", "runs_fingerprint"]
 
 PROTOCOL_SEED = 20_261_123
 """Root of every draw: run ``i`` of group ``g`` uses ``numpy.random.default_rng([PROTOCOL_SEED, g, i])``."""
@@ -107,6 +107,19 @@ def protocol_runs(
                 runs.append(RunSpec("fault", f"fault-{fault}-{world}-s{s}", k, s, world, sc, fault, 120.0))
                 k += 1
     return runs
+
+
+def runs_fingerprint() -> str:
+    """Short hash of the sources that draw the runs (this module and the point-mass world), for result caches."""
+    import hashlib
+    from pathlib import Path
+
+    from uuom_gym.sim import point_mass
+
+    h = hashlib.sha1()
+    for path in (__file__, point_mass.__file__):
+        h.update(Path(path).read_bytes())
+    return h.hexdigest()[:12]
 
 
 def _rng(spec: RunSpec) -> np.random.Generator:

@@ -40,7 +40,9 @@ spread-of-means term.
 Two gates keep the probabilities from learning from data that carry no payload information or break the model:
 the probabilities are frozen when the drive force ``T/r`` is below ``min_traction_n`` (coasting or braking: the
 brake cars act with a force that is not measured) or the train is at standstill, and when even the best model's
-normalised innovation squared exceeds ``gate_nis`` (spikes, faults). The filters' states are still updated.
+normalised innovation squared exceeds ``gate_nis`` (spikes, faults). A measurement that fails that gate in
+every model is an outlier and updates no state either, unless it has done so for 40 samples in a row (then it is
+a real step and is followed); ``n_outliers`` counts them.
 
 Bad input: NaN and physically impossible values (:class:`~estimators.input_limits.InputLimits`: ``inf``,
 ``1e300``) are missing samples; a ``dt`` above :data:`~estimators.filters.MAX_STEP_S` is a gap predicted over that
@@ -65,6 +67,7 @@ from . import mmae_kernel as _kernel
 from .mmae_config import MMAEConfig, MMAEConfigError
 
 _REPAIR_EVERY = 50
+_RELOCK_AFTER = 40  # consecutive outliers of one measurement after which it is believed again (a real step)
 _SLOPE_TAU_S = 1.0  # low-pass of the model-free slope that feeds the rear-section slope history
 
 
@@ -167,6 +170,9 @@ class MMAEEstimator(Estimator):
         self._slope_lp = 0.0
         self._initialised = False
         self._last_torque = 0.0
+        self._n_rejected_v = 0
+        self._n_rejected_f = 0
+        self.n_outliers = 0
         self._estimate = self._mixture()
 
     @property
@@ -312,23 +318,41 @@ class MMAEEstimator(Estimator):
         held = have_v and abs(speed_mps) < self._standstill and abs(self._last_torque) / self._radius < (
             self._min_traction_n
         )
+        saved = (self._s_m, self._v_lp, self._f_lp, self._slope_lp, self._hist_first, self._hist_last)
         if dt_s > 0.0:
             speed = speed_mps if have_v else float(np.exp(self._log_prob) @ self._x[:, 0])
             self._s_m += speed * dt_s  # odometry for the slope history
             self._predict(self._last_torque, dt_s, held, abs(speed))
+        # with the torque missing the measurement model is unknown: predict only, and keep a sample the bank cannot
+        # check out of the model-free slope history (an outlier there would bias the rear slope 9 m later)
+        if not have_t:
+            if have_v and dt_s > 0.0:
+                nis_v = (speed_mps - self._x[:, 0]) ** 2 / (self._P[:, 0, 0] + self._r_v)
+                if float(nis_v.min()) > self._gate_nis:  # a speed outlier: odometry from the bank instead
+                    self._s_m = saved[0] + float(np.exp(self._log_prob) @ self._x[:, 0]) * dt_s
+            self._condition()
+            return self._finish()
         if have_v and have_f and self._rear_offset > 0.0 and dt_s > 0.0:
             self._measure_slope(speed_mps, accel_mps2, dt_s)
         th_rear = self._rear_slope()
-        # with the torque missing the measurement model is unknown: predict only
-        if not have_t:
-            self._condition()
-            return self._finish()
         informative = (
             have_v and have_f and not held and abs(torque_nm) / self._radius >= self._min_traction_n
         )
-        _kernel.correct(self._x, self._P, self._log_prob, self._consts, torque_nm, speed_mps, accel_mps2, have_v,
-                        have_f, th_rear, self._radius, self._v_s, self._r_v, self._r_f, informative, self._gate_nis,
-                        self._floor)
+        rejected = _kernel.correct(
+            self._x, self._P, self._log_prob, self._consts, torque_nm, speed_mps, accel_mps2, have_v, have_f,
+            th_rear, self._radius, self._v_s, self._r_v, self._r_f, informative, self._gate_nis, self._floor,
+            self._n_rejected_v >= _RELOCK_AFTER, self._n_rejected_f >= _RELOCK_AFTER,
+        )
+        self._n_rejected_v = self._n_rejected_v + 1 if rejected & 1 else 0
+        self._n_rejected_f = self._n_rejected_f + 1 if rejected & 2 else 0
+        self.n_outliers += rejected.bit_count()
+        if rejected:
+            # an outlier must not enter the model-free slope history nor the odometry either: take them back
+            # (bins written meanwhile lie beyond the restored end and are never read before being rewritten)
+            s_prev = saved[0]
+            self._s_m, self._v_lp, self._f_lp, self._slope_lp, self._hist_first, self._hist_last = saved
+            if dt_s > 0.0:
+                self._s_m = s_prev + float(np.exp(self._log_prob) @ self._x[:, 0]) * dt_s
         self._condition()
         return self._finish()
 

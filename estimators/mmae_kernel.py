@@ -126,10 +126,17 @@ def _scalar_update(x: np.ndarray, P: np.ndarray, j: int, resid: float, h0: float
 @njit(cache=True)
 def correct(x: np.ndarray, P: np.ndarray, log_prob: np.ndarray, m: np.ndarray, torque_nm: float,
             speed_mps: float, accel_mps2: float, have_v: bool, have_f: bool, th_rear: float, radius: float,
-            v_s: float, r_v: float, r_f: float, learn: bool, gate_nis: float,
-            prob_floor: float) -> None:  # pragma: no cover - compiled
-    """Speed and specific-force updates of every model, then (if ``learn`` and the best model's NIS passes the
-    gate) the Bayesian update of the model probabilities, floored at ``prob_floor``."""
+            v_s: float, r_v: float, r_f: float, learn: bool, gate_nis: float, prob_floor: float,
+            force_v: bool, force_f: bool) -> int:  # pragma: no cover - compiled
+    """Speed and specific-force updates of every model, then the Bayesian update of the model probabilities.
+
+    A measurement whose normalised innovation squared exceeds ``gate_nis`` in *every* model is an outlier (a
+    spike, a fault): it updates no state unless ``force_v`` / ``force_f`` (the caller forces it after a run of
+    rejections, so a real step is followed). The probabilities learn only if ``learn``, nothing was rejected and
+    the best model's total NIS passes the gate; they are floored at ``prob_floor``.
+
+    Returns a bit mask of the rejected measurements: 1 speed, 2 specific force.
+    """
     n = x.shape[0]
     rear = not math.isnan(th_rear)
     sin_r = math.sin(th_rear) if rear else 0.0
@@ -137,14 +144,26 @@ def correct(x: np.ndarray, P: np.ndarray, log_prob: np.ndarray, m: np.ndarray, t
     tq = torque_nm / radius
     g = np.empty(3)
     loglik = np.zeros(n)
-    nis_min = math.inf
-    for j in range(n):
-        nis = 0.0
-        if have_v:
-            ll, nis1 = _scalar_update(x, P, j, speed_mps - x[j, 0], 1.0, 0.0, 0.0, r_v, g)
-            loglik[j] += ll
-            nis += nis1
-        if have_f:
+    nis = np.zeros(n)
+    rejected = 0
+    if have_v:
+        worst = math.inf
+        for j in range(n):
+            e = speed_mps - x[j, 0]
+            worst = min(worst, e * e / (P[j, 0, 0] + r_v))
+        if worst <= gate_nis or force_v:
+            for j in range(n):
+                ll, nis1 = _scalar_update(x, P, j, speed_mps - x[j, 0], 1.0, 0.0, 0.0, r_v, g)
+                loglik[j] += ll
+                nis[j] += nis1
+        else:
+            rejected |= 1
+    if have_f:
+        resid = np.empty(n)
+        h0 = np.empty(n)
+        h1 = np.empty(n)
+        worst = math.inf
+        for j in range(n):
             v = x[j, 0]
             th = x[j, 1]
             gf = m[GF, j]
@@ -158,15 +177,25 @@ def correct(x: np.ndarray, P: np.ndarray, log_prob: np.ndarray, m: np.ndarray, t
             if rear:
                 grav = grav + m[GR, j] * sin_r + m[GR_MU, j] * cos_r * tanh_v
                 res = res + m[GR_MU, j] * cos_r
-            f_pred = tq * m[INV_MEFF, j] - grav + G_MPS2 * sin_f
-            h0 = -res * (1.0 - tanh_v * tanh_v) / v_s
-            h1 = G_MPS2 * cos_f - d_th
-            ll, nis2 = _scalar_update(x, P, j, accel_mps2 - f_pred, h0, h1, 0.0, r_f, g)
-            loglik[j] += ll
-            nis += nis2
-        nis_min = min(nis_min, nis)
-    if not learn or not (nis_min <= gate_nis):
-        return
+            resid[j] = accel_mps2 - (tq * m[INV_MEFF, j] - grav + G_MPS2 * sin_f)
+            h0[j] = -res * (1.0 - tanh_v * tanh_v) / v_s
+            h1[j] = G_MPS2 * cos_f - d_th
+            s = h0[j] * (P[j, 0, 0] * h0[j] + P[j, 0, 1] * h1[j]) + h1[j] * (P[j, 1, 0] * h0[j] + P[j, 1, 1] * h1[j])
+            worst = min(worst, resid[j] * resid[j] / (s + r_f))
+        if worst <= gate_nis or force_f:
+            for j in range(n):
+                ll, nis2 = _scalar_update(x, P, j, resid[j], h0[j], h1[j], 0.0, r_f, g)
+                loglik[j] += ll
+                nis[j] += nis2
+        else:
+            rejected |= 2
+    if not learn or rejected != 0:
+        return rejected
+    nis_min = math.inf
+    for j in range(n):
+        nis_min = min(nis_min, nis[j])
+    if not (nis_min <= gate_nis):
+        return rejected
     top = -math.inf
     for j in range(n):
         loglik[j] += log_prob[j]
@@ -181,6 +210,7 @@ def correct(x: np.ndarray, P: np.ndarray, log_prob: np.ndarray, m: np.ndarray, t
         total2 += loglik[j]
     for j in range(n):
         log_prob[j] = math.log(loglik[j] / total2)
+    return rejected
 
 
 @njit(cache=True)

@@ -84,8 +84,21 @@ def _module_closure(module_name: str) -> list[str]:
     return sorted(seen)
 
 
+_FINGERPRINTS: dict[str, str] = {}
+
+
 def fingerprint(name: str) -> str:
-    """Short hash of the source of the estimator's module and the ``estimators`` modules it uses."""
+    """Short hash of the source of the estimator's module and the ``estimators`` modules it uses.
+
+    Taken once per process (on the first call, right after the import), so it describes the code this process
+    runs even if the files change on disk while it runs.
+    """
+    if name not in _FINGERPRINTS:
+        _FINGERPRINTS[name] = _fingerprint(name)
+    return _FINGERPRINTS[name]
+
+
+def _fingerprint(name: str) -> str:
     cls = get_class(name)
     h = hashlib.sha1(name.encode())
     for mod in _module_closure(cls.__module__):

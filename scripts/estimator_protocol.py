@@ -26,7 +26,7 @@ import os
 import sys
 from pathlib import Path
 
-from estimators.protocol import run_protocol, usable_estimators
+from estimators.protocol import fingerprint, run_protocol, usable_estimators
 from estimators.protocol_report import write_report
 from uuom_gym.sim.protocol_runs import make_run, protocol_runs, runs_fingerprint
 
@@ -53,6 +53,8 @@ def main(argv: list[str] | None = None) -> int:
         args.plant_runs, args.point_runs, args.paper_seeds, args.fault_seeds = 4, 4, 1, 1
     os.nice(10)
     names, skipped = usable_estimators(args.estimators.split(",") if args.estimators else None)
+    for name in names:
+        fingerprint(name)  # now, with the import: describes the code this run uses
     for name, why in skipped.items():
         print(f"# not scored: {name}: {why}", file=sys.stderr)
     specs = protocol_runs(args.plant_runs, args.point_runs, duration_s=args.duration_s,

@@ -239,8 +239,12 @@ def _figures(rows: list[dict], names: list[str], out: Path) -> list[Path]:
             rs = g.get(("plant", name), []) + g.get(("point", name), [])
             v = [r.get(key) for r in rs if r.get(key) is not None and not
                  (isinstance(r.get(key), float) and math.isnan(r.get(key)))]
-            vals.append(100.0 * float(np.mean(v)) if v else 0.0)
-        ax.bar(np.arange(len(names)) + (k - 1.5) * width, vals, width, label=lab)
+            vals.append(100.0 * float(np.mean(v)) if v else math.nan)
+        x = np.arange(len(names)) + (k - 1.5) * width
+        ax.bar(x, vals, width, label=lab, color=f"C{k}")
+        for xi, v in zip(x, vals):  # a method that does not estimate the quantity: say so, not a zero bar
+            if math.isnan(v):
+                ax.text(xi, 1.0, "n/a", rotation=90, ha="center", va="bottom", fontsize=6, color=f"C{k}")
     ax.axhline(95.4, color="k", ls=":", lw=1, label="95.4 % (consistent Gaussian)")
     ax.axhline(90.0, color="k", ls="--", lw=1, label="90 % of runs (issue 10 target for NEES)")
     ax.set_xticks(np.arange(len(names)), names, rotation=45, ha="right")

@@ -18,7 +18,9 @@ Properties checked after every call:
 
 The default suite tries ``MAX_EXAMPLES`` fault plans per estimator; ``-m slow`` adds a 10^6-update soak per
 estimator. Failures found in estimators owned elsewhere are marked ``xfail(strict=False)`` with the reason in
-:data:`KNOWN_FAILURES`, so they turn into passes as soon as they are fixed.
+:data:`KNOWN_FAILURES`, so they turn into passes as soon as they are fixed; estimators in :data:`KNOWN_HANGS`
+(huge ``dt`` hangs) get no huge ``dt`` in their plans and an ``xfail(run=False)`` for it in
+:func:`test_extreme_but_valid_dt_then_clean` (running a hang costs a watchdog period).
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from contextlib import contextmanager
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 import estimators
@@ -40,13 +42,28 @@ from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
 CALL_LIMIT_S = 5.0
 """Wall-time bound of one ``update()`` call: a hang detector, not a timing test (updates take microseconds; a
 sub-step loop of ``ceil(dt / h)`` iterations for ``dt = 1e9`` takes hours). Generous for a loaded CI machine."""
-WATCHDOG_S = 20
+WATCHDOG_S = 15
 """Alarm that aborts a whole example that hangs inside C code or a loop that never returns."""
 MAX_EXAMPLES = 30
 N_CLEAN = 120  # samples of the clean stream (0.6 s at 200 Hz) around the faults
 
-# estimator name -> reason, for failures found in files this suite's author does not own (see the report)
-KNOWN_FAILURES: dict[str, str] = {}
+# Failures found in estimators this suite's author does not own (reported; docs/robustness.md). They turn into
+# passes (xfail is not strict) as soon as they are fixed; then delete the entry.
+_SUBSTEPS = "a finite dt of 1e9 or 1e300 hangs: sub-step count ceil(dt / sway_h_max) in estimators/rls.py"
+KNOWN_HANGS: dict[str, str] = {
+    "rls": _SUBSTEPS,
+    "ffrls": _SUBSTEPS,
+    "dffrls": _SUBSTEPS,
+    "rls-ekf": _SUBSTEPS,
+    "sf-kf": "a finite dt of 1e9 or 1e300 hangs: slope-history walk `while self.s_m >= self.next_s` in "
+             "estimators/specific_force.py",
+}
+"""Estimators that hang on a huge finite ``dt``: the fuzz plans leave 1e9 / 1e300 out for them (a hang costs a
+watchdog period), and :func:`test_extreme_but_valid_dt_then_clean` records the hang as an expected failure."""
+KNOWN_FAILURES: dict[str, str] = {
+    "rls-ekf": "+-inf speed for 60 samples gives a NaN slope for good (SlopeEKF.update in estimators/ekf.py)",
+}
+HUGE_DT = (1e9, 1e300)
 
 SPECIAL = [math.nan, math.inf, -math.inf, 1e300, -1e300, 0.0, 1e9, -1e9, 5e5, -5e5]
 BAD_DT = [0.0, -0.005, -1.0, math.nan, math.inf, -math.inf, 1e9, 1e300, 1e-300, 3.0, 60.0]
@@ -87,13 +104,14 @@ def clean_stream(n: int, seed: int) -> np.ndarray:
 
 
 @st.composite
-def fault_plans(draw: st.DrawFn) -> tuple[int, list[tuple[int, int, int, float]]]:
+def fault_plans(draw: st.DrawFn, huge_dt: bool = True) -> tuple[int, list[tuple[int, int, int, float]]]:
     """A seed for the clean stream and a list of (start, length, field, value) faults."""
     seed = draw(st.integers(0, 2**16))
+    bad_dt = BAD_DT if huge_dt else [v for v in BAD_DT if v not in HUGE_DT]
     faults = []
     for _ in range(draw(st.integers(1, 6))):
         field = draw(st.integers(0, 6))
-        value = draw(st.sampled_from(BAD_DT if field == 3 else SPECIAL))
+        value = draw(st.sampled_from(bad_dt if field == 3 else SPECIAL))
         length = draw(st.sampled_from([1, 1, 2, 5, 40, 200]))  # single spikes and bursts
         start = draw(st.integers(0, N_CLEAN - 1))
         faults.append((start, length, field, value))
@@ -175,6 +193,8 @@ def _check_covariances(name: str, est: object, where: str) -> None:
 
 
 def run_plan(name: str, seed: int, faults: list[tuple[int, int, int, float]]) -> None:
+    # a throwaway clean update first: loading compiled code (numba cache) must not count as a slow call
+    estimators.make(name).update(*clean_stream(1, 0)[0].tolist())
     est = estimators.make(name)
     data = clean_stream(N_CLEAN + 400, seed)
     bad = data.copy()
@@ -212,9 +232,12 @@ def _report_counts() -> Iterator[None]:
 def test_update_survives_faults(name: str) -> None:
     estimators.make(name).update(*clean_stream(1, 0)[0].tolist())  # compile/warm outside the watchdog
 
+    # derandomized (the same plans on every run: CI is deterministic); no shrinking, because a hang costs a
+    # watchdog period per shrink step and the failing plan is printed as drawn
     @settings(max_examples=MAX_EXAMPLES, deadline=None, derandomize=True, database=None,
+              phases=(Phase.explicit, Phase.generate),
               suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-    @given(plan=fault_plans())
+    @given(plan=fault_plans(huge_dt=name not in KNOWN_HANGS))
     def check(plan: tuple[int, list[tuple[int, int, int, float]]]) -> None:
         run_plan(name, *plan)
 
@@ -222,20 +245,38 @@ def test_update_survives_faults(name: str) -> None:
 
 
 @pytest.mark.parametrize("name", _names())
-@pytest.mark.parametrize("dt", [0.0, 1e-300, 1e9, 1e300])
+@pytest.mark.parametrize("value", [math.inf, -math.inf, 1e300, math.nan], ids=["+inf", "-inf", "1e300", "nan"])
+def test_bad_value_on_each_input_then_clean(name: str, value: float) -> None:
+    """Deterministic companion of the fuzz: each input in turn bad for the first 60 samples (0.3 s) and again
+    for 60 samples mid-stream; a +inf must not produce NaN (issue 12)."""
+    for field in (0, 1, 2, 4, 5, 6):
+        run_plan(name, 5, [(0, 60, field, value), (200, 60, field, value)])
+
+
+def _dt_cases() -> list[object]:
+    out: list[object] = []
+    for name in estimators.available():
+        for dt in (0.0, 1e-300, *HUGE_DT):
+            hang = KNOWN_HANGS.get(name) if dt in HUGE_DT else None
+            marks = [pytest.mark.xfail(run=False, reason=hang)] if hang else []
+            out.append(pytest.param(name, dt, marks=marks, id=f"{name}-{dt:g}"))
+    return out
+
+
+@pytest.mark.parametrize("name, dt", _dt_cases())
 def test_extreme_but_valid_dt_then_clean(name: str, dt: float) -> None:
     """A finite dt >= 0, however absurd, gives an estimate (0 may be refused as documented), then clean data works."""
     run_plan(name, 1, [(50, 1, 3, dt)])
 
 
-def _soak_inputs(rng: np.random.Generator, n: int) -> np.ndarray:
+def _soak_inputs(rng: np.random.Generator, n: int, huge_dt: bool = True) -> np.ndarray:
     x = clean_stream(n, int(rng.integers(2**16)))
     x[:, :3] *= rng.uniform(0.0, 3.0, (n, 3))
     x[:, 4:] *= rng.uniform(0.0, 3.0, (n, 3))
     hit = rng.random((n, 7)) < 0.01
     x[hit] = rng.choice(SPECIAL, hit.sum())
     dt_hit = rng.random(n) < 0.001
-    x[dt_hit, 3] = rng.choice([1e9, 1e300, 3.0, 1e-300], dt_hit.sum())
+    x[dt_hit, 3] = rng.choice([1e9, 1e300, 3.0, 1e-300] if huge_dt else [3.0, 1e-300], dt_hit.sum())
     return x
 
 
@@ -246,7 +287,7 @@ def test_soak_1e6_updates(name: str) -> None:
     est = estimators.make(name)
     chunk = 10_000
     for c in range(100):
-        x = _soak_inputs(rng, chunk).tolist()
+        x = _soak_inputs(rng, chunk, huge_dt=name not in KNOWN_HANGS).tolist()
         with watchdog(600):
             for row in x:
                 e = est.update(*row)

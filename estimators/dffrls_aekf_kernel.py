@@ -557,7 +557,10 @@ def _fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
     p13 -= q1 * q3 / s_m
     p22 -= q2 * q2 / s_m
     p23 -= q2 * q3 / s_m
-    if learn_b:  # else beta is a considered parameter too (zero gain, variance kept)
+    if learn_b and consider:
+        # beta only at steady speed (grade changes are its information), c only from accelerations: a residual
+        # of the start or stop dynamics must not be read as a gravity blend; else beta is a considered parameter
+        # too (zero gain, variance kept)
         b += q3 / s_m * e
         p33 -= q3 * q3 / s_m
     # PD repair: floors on the diagonal, then shrink the correlations until every leading minor is positive

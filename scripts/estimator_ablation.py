@@ -10,7 +10,7 @@ on the point-mass world). Printed as a Markdown table of medians and 95th percen
 
 Usage::
 
-    python scripts/estimator_ablation.py [--plant 40] [--point 40] [--duration 60] [--cache DIR]
+    python scripts/estimator_ablation.py [--plant 40] [--point 40] [--duration 60] [--cache DIR] [--only fused]
 """
 
 from __future__ import annotations
@@ -76,6 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--point", type=int, default=40)
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--cache", default=None, help="folder to keep the generated traces in")
+    ap.add_argument("--only", default=None, help="comma-separated estimator names: only their rows")
     args = ap.parse_args(argv)
     if args.cache:
         os.makedirs(args.cache, exist_ok=True)
@@ -84,7 +85,10 @@ def main(argv: list[str] | None = None) -> int:
           f"{args.duration:g} s each; errors after 10 s; p50 / p95 over runs\n")
     print("| variant | plant mass max % | plant slope RMSE ° | point mass max % | point slope RMSE ° |")
     print("| --- | --- | --- | --- | --- |")
+    only = set(args.only.split(",")) if args.only else None
     for label, name, opts in VARIANTS:
+        if only is not None and name not in only:
+            continue
         cells = []
         for world in ("plant", "point"):
             e = np.array([errors(tr, name, opts) for tr in data[world]]) if data[world] else np.full((1, 2), np.nan)

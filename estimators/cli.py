@@ -5,9 +5,10 @@
     uuom-estimate TRACE.csv --vehicle VEHICLE.toml --estimator NAME --out ESTIMATES.csv [--settle-s 10] [--json]
     uuom-estimate --list
 
-Writes one row per input row (``t_s, mass_kg, slope_deg, mass_std_kg, slope_std_deg``) atomically, and when the
-trace has truth columns prints per quantity the RMSE and the maximum absolute error over the samples after the
-settle time (mass also in percent). Bad input gives one line ``uuom-estimate: error: FILE:LINE: ...`` on stderr
+Writes one row per input row (``t_s, mass_kg, slope_deg, mass_std_kg, slope_std_deg``; for an estimator whose
+``outputs`` differ, e.g. ``aupf`` or ``imu-ukf``, only its own quantities: see :func:`output_columns`) atomically,
+and when the trace has truth columns prints per estimated quantity the RMSE and the maximum absolute error over the
+samples after the settle time (mass also in percent). Bad input gives one line ``uuom-estimate: error: FILE:LINE: ...`` on stderr
 and exit status 2; the output file is then not touched.
 """
 
@@ -129,6 +130,31 @@ def _format_summary(s: dict[str, Any], name: str, source: str) -> str:
     return "\n".join(lines)
 
 
+def output_columns(outputs: Sequence[str], series: EstimateSeries) -> tuple[list[str], list[np.ndarray]]:
+    """Header and columns of the estimates file: ``t_s``, then the estimator's declared outputs
+    (``Estimator.outputs``), then their standard deviations where it gives them.
+
+    ``mass`` -> ``mass_kg`` / ``mass_std_kg``, ``slope`` -> ``slope_deg`` / ``slope_std_deg``, any other output
+    -> its ``extras`` key / ``KEY_std``. A quantity the estimator does not estimate (the prior mass of ``imu-ukf``
+    and ``aupf``) is not written.
+    """
+    values: list[tuple[str, np.ndarray]] = []
+    stds: list[tuple[str, np.ndarray]] = []
+    for key in outputs:
+        if key == "mass":
+            values.append(("mass_kg", series.mass_kg))
+            stds.append(("mass_std_kg", series.mass_std_kg))
+        elif key == "slope":
+            values.append(("slope_deg", series.slope_deg))
+            stds.append(("slope_std_deg", series.slope_std_deg))
+        else:
+            values.append((key, series.extras[key]))
+            if key + "_std" in series.extras:
+                stds.append((key + "_std", series.extras[key + "_std"]))
+    pairs = [("t_s", series.t_s), *values, *stds]
+    return [k for k, _ in pairs], [v for _, v in pairs]
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=PROG, description="Estimate mass and slope from a recorded monorail trace.")
     p.add_argument("trace", nargs="?", help="trace CSV (t_s, torque_nm, speed_mps, accel_mps2, ...)")
@@ -172,19 +198,21 @@ def main(argv: Sequence[str] | None = None) -> int:
             if str(out_dir) and not out_dir.is_dir():
                 raise _CliError(f"{args.out}: output directory {out_dir} does not exist")
         series = cls(vehicle).run(trace)
+        if tuple(cls.outputs) != ("mass", "slope"):
+            print(f"{PROG}: note: {args.estimator} estimates {', '.join(cls.outputs)} only; "
+                  f"only those columns are written and scored", file=sys.stderr)
         if args.out is not None:
             try:
-                write_csv_atomic(
-                    args.out,
-                    ["t_s", "mass_kg", "slope_deg", "mass_std_kg", "slope_std_deg"],
-                    [series.t_s, series.mass_kg, series.slope_deg, series.mass_std_kg, series.slope_std_deg],
-                )
+                write_csv_atomic(args.out, *output_columns(cls.outputs, series))
             except OSError as exc:
                 raise _CliError(f"{args.out}: cannot write: {exc.strerror or exc}") from None
     except _CliError as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     summary = summarize(trace, series, args.settle_s)
+    for key in ("mass", "slope"):  # a prior placeholder is not an estimate: no error summary for it
+        if key not in cls.outputs:
+            summary.pop(key, None)
     summary["estimator"] = args.estimator
     summary["trace"] = str(args.trace)
     if args.json:

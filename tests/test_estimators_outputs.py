@@ -85,3 +85,33 @@ def test_imu_ukf_slope_output_is_an_estimate() -> None:
     high = final("imu-ukf", stream(2000, grade_deg=5.0))
     assert abs(math.degrees(high.slope_rad - low.slope_rad) - 4.0) < 0.5
     assert abs(math.degrees(high.slope_rad) - 5.0) < 0.5
+
+
+@pytest.mark.parametrize("name, header", [
+    ("aupf", ["t_s", "slip_ratio", "drive_radius_m", "slip_ratio_std", "drive_radius_m_std"]),
+    ("imu-ukf", ["t_s", "slope_deg", "slope_std_deg"]),
+    ("dffrls-aekf", ["t_s", "mass_kg", "slope_deg", "mass_std_kg", "slope_std_deg"]),
+])
+def test_uuom_estimate_writes_only_the_declared_outputs(name: str, header: list[str], tmp_path, capsys) -> None:
+    """Issue 12: ``aupf`` and ``imu-ukf`` under ``uuom-estimate`` wrote the prior mass and slope 0 without a word."""
+    from estimators.cli import main
+    from uuom_core.synthetic import synthetic_trace
+    from uuom_core.trace import write_trace_csv
+
+    trace = synthetic_trace("varying", seed=1, duration_s=3.0)
+    cols = dict(trace.columns)
+    cols["motor_speed_radps"] = trace["true_speed_mps"] * 1.003 / DEFAULT_VEHICLE.drive_wheel_radius_m
+    cols["gyro_radps"] = np.zeros(len(trace))
+    cols["accel_normal_mps2"] = G_MPS2 * np.cos(np.radians(trace["slope_deg"]))
+    src, out = tmp_path / "trace.csv", tmp_path / "est.csv"
+    write_trace_csv(cols, src)
+    assert main([str(src), "--estimator", name, "--out", str(out), "--settle-s", "1", "--json"]) == 0
+    assert out.read_text().splitlines()[0].split(",") == header
+    captured = capsys.readouterr()
+    summary = __import__("json").loads(captured.out)
+    outputs = estimators.get_class(name).outputs
+    assert ("mass" in summary) == ("mass" in outputs) and ("slope" in summary) == ("slope" in outputs)
+    if outputs != ("mass", "slope"):
+        assert "only those columns" in captured.err
+    else:
+        assert captured.err == ""

@@ -50,7 +50,7 @@ from typing import Any, ClassVar
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
-from .filters import LowPass2, SpikeGate, check_dt, repair_pd_2x2
+from .filters import MAX_STEP_S, LowPass2, SpikeGate, check_dt, repair_pd_2x2
 
 __all__ = ["RegressionFrontEnd", "RLSMassEstimator", "FFRLSMassEstimator", "DFFRLSMassEstimator"]
 
@@ -134,7 +134,12 @@ class RegressionFrontEnd:
         self.load_accel_mps2 = 0.0
 
     def step(self, torque_nm: float, speed_mps: float, dt_s: float) -> bool:
-        """Filter one sample; return :attr:`valid`."""
+        """Filter one sample; return :attr:`valid`. A ``dt_s`` of :data:`~estimators.filters.MAX_STEP_S` or more is
+        a data gap: the filters restart (their held states no longer describe the motion) and at most that long
+        is integrated, so the pendulum's sub-step count stays bounded."""
+        if dt_s >= MAX_STEP_S:
+            self.reset()
+            dt_s = MAX_STEP_S
         T = self.gate_torque(torque_nm, dt_s)
         v = self.gate_speed(speed_mps, dt_s)
         raw_ok = T == T and v == v
@@ -326,6 +331,8 @@ class _RLSMassBase(Estimator):
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
         check_dt(dt_s)
+        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
+            dt_s = MAX_STEP_S
         if self.front.step(torque_nm, speed_mps, dt_s):
             self._rls_step()
         return self.estimate

@@ -23,7 +23,7 @@ from uuom_core.vehicle import VehicleParams
 
 from .base import Estimate, Estimator
 from .ekf import SlopeEKF
-from .filters import check_dt
+from .filters import MAX_STEP_S, check_dt
 from .rls import RLSMassEstimator, _RLSMassBase
 
 __all__ = ["RLSEKF"]
@@ -57,6 +57,8 @@ class _TwoLayer(Estimator):
                accel_normal_mps2: float = math.nan) -> Estimate:
         if not (dt_s > 0.0 and dt_s < math.inf):
             check_dt(dt_s)
+        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
+            dt_s = MAX_STEP_S
         ml = self.mass_layer
         if ml.front.step(torque_nm, speed_mps, dt_s):
             ml._rls_step()

@@ -42,6 +42,8 @@ KNOWN_FAILURES: dict[tuple[str, str], str] = {
     ("ekf", "bias"): "mass 537 kg from the clean run 12-27 s after the bias (bound 520); " + _OTHERS,
     ("rls", "bias"): "no forgetting: slope 0.30 deg from the clean run (bound 0.15); " + _OTHERS,
     ("sf-kf", "bias"): "mass 1443 kg from the clean run (bound 520); " + _OTHERS,
+    ("fused", "dropout"): "mass 3.5 t from the clean run at commit 8825c88 (bound 520 kg); " + _OTHERS,
+    ("fused", "bias"): "mass 2.3 t, slope 0.33 deg from the clean run at commit 8825c88; " + _OTHERS,
 }
 
 

@@ -18,22 +18,25 @@ the project's plant: the drive section at the front). The reported slope is the 
 ``train_length_m`` of travel (a history along the distance travelled), which is what gravity acts on and what
 the safety rules use. Default 14 m, not the vehicle's 18.1 m: the train's mass is not spread evenly (on the
 plant the payload hangs 9 m behind the sensors); on plant tuning runs 1000-1015 a 18.1 m window gave a median
-slope RMSE of 0.80°, 14 m 0.37°, 10 m 0.39°. ``train_length_m=0``: a point mass, the local slope. This window is
+slope RMSE of 0.80°, 14 m 0.37°, 10 m 0.39° (before the start-up history fix; after it 14 m: 0.26°). ``train_length_m=0``: a point mass, the local slope. This window is
 a fixed geometry assumption: on a world where gravity acts at one point it lags every grade change.
 
-**Mass layer: DFFRLS on the specific-force regression** (every sample with traction carries information, not only
-accelerations; μ is estimated jointly so a wrong running resistance in the vehicle file does not become a mass
-error)::
+**Mass layer: DFFRLS on the specific-force regression of the whole train**::
 
-    (F − m_rot a − M_rigid (a − a_L)) / M_ref = [a_L + g sin θ̄, g cos θ̄] · [M/M_ref, μ M/M_ref]ᵀ
+    (F − m_rot a − M_rigid (a − a_L)) / M_ref = [a_L + g sin θ̄, g] · [c, o]ᵀ,   c = M / M_ref
 
 with ``F = T/r`` and ``a = dv/dt`` through the same second-order low-pass (phase lags cancel), θ̄ the slope under
 the train from the slope layer, ``a_L`` the acceleration of the load swinging on its chains (a pendulum forced by
-dv/dt, ``chain_length_m``; 0 = rigid). The dynamic forgetting factor λ_k = δ + (1−δ) exp(−σ|e_k|) (paper eq. 19,
-λ from the current residual) scales a vector forgetting ``1 − r (1 − λ_k)`` with ``r = mass_forgetting_ratio``
-(mass and μ are constants of a run; ``r = 1`` is the paper's single λ), bounded by the prior variance. No mass
-update at standstill, without traction (the brake force is not measured), before the slope layer has settled, or
-while the slope under the train changes faster than the two-point history can follow (``max_slope_spread_rad``).
+dv/dt, ``chain_length_m``; 0 = rigid). ``o`` (offset mode, ``offset_forgetting_ratio > 0``, default) is the
+running resistance ``μ c cos θ`` plus whatever constant the upper layer gets wrong (accelerometer bias, slope
+geometry), so a wrong μ in the vehicle file does not become a mass error; ``offset_forgetting_ratio=0`` gives the
+``g cos θ̄`` regressor and ``o = μ c`` (μ proper). The dynamic forgetting factor λ_k = δ + (1−δ) exp(−σ|e_k|)
+(paper eq. 19, λ from the current residual) is applied per parameter, ``1 − r (1 − λ_k)`` with
+``r = mass_forgetting_ratio`` (0.005) for c and ``offset_forgetting_ratio`` (1) for o, bounded by the prior
+variance. The mass is corrected only from |a_L| ≥ ``min_accel_mps2`` (0.05 m/s²; Schmidt update otherwise: at
+constant speed a slope error of the upper layer would be read as mass). No update at standstill, without traction
+(the brake force is not measured), before the slope layer has settled, or while the slope under the train changes
+faster than the two-point history can follow (``max_slope_spread_rad``).
 
 Robust by construction (see :mod:`estimators.dffrls_aekf_kernel`): inputs checked for finiteness and magnitude,
 spike gates, dt NaN/0/negative = sample ignored, dt above ``gap_s`` = a gap (restart, no integration over it).
@@ -62,8 +65,10 @@ __all__ = ["DFFRLSAEKF", "DFFRLSAEKFConfig"]
 
 @dataclass(frozen=True)
 class DFFRLSAEKFConfig:
-    """Settings of ``dffrls-aekf``; each is also a keyword option of the estimator. Tuned on plant seeds 1000-1039
-    only (the WIP session's runs; ``train_length_m`` on plant runs 1000-1015); the ablation switches are marked (A).
+    """Settings of ``dffrls-aekf`` (and ``fused``); each is also a keyword option of the estimator. Tuned on plant
+    runs only (the previous session's; ``train_length_m``, ``min_accel_mps2``, ``offset_forgetting_ratio``,
+    ``residual_std_mps2`` and ``mu_prior_std`` on plant runs 1000-1015 of ``uuom_gym.sim.protocol_runs``); the
+    ablation switches are marked (A). Fields not listed below are documented in the module docstring.
 
     Attributes
     ----------

@@ -1,4 +1,8 @@
-"""The compiled per-sample step of ``dffrls-aekf`` (see :mod:`estimators.dffrls_aekf` for the method).
+"""The compiled per-sample step of ``dffrls-aekf`` and ``fused`` (see :mod:`estimators.dffrls_aekf` for the method).
+
+About 420 lines on purpose: :func:`step` is one compiled function over three arrays (its helpers are inlined by
+numba); the array layout is in :mod:`estimators.dffrls_aekf_layout`, the fused regression in
+:mod:`estimators.fused_kernel`.
 
 The whole estimator state lives in two float64 arrays (``S``: scalars, ``H``: the slope history along the distance
 travelled) and its settings in a third (``C``), indexed by the module constants below, so one function,
@@ -23,6 +27,18 @@ import numpy as np
 from uuom_core.vehicle import G_MPS2
 
 from . import filters
+from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-exported)
+    GAP_S, DT_NOM, RADIUS, M_ROT, M_REF, M_RIGID, C_MIN, C_MAX, MU0, MU_MAX, CUT_HZ, FAST_HZ, CHAIN_L, SWAY_DAMP,
+    SWAY_H, MIN_SPEED, MIN_FORCE, SETTLE_S, T_MAX, T_RATE, T_BAND, V_MAX, V_RATE, V_BAND, F_MAX, F_RATE, F_BAND,
+    RELOCK, GATES, R0, R_MIN, R_MAX, FADING, ADAPT_R, ACC_VAR, MODEL_ACC_VAR, GRADE_VAR_M, P0_TH, GATE2, MAX_SLOPE,
+    USE_ACCEL, HIST_DS, N_HIST, R_M, DELTA, SIGMA, MASS_FORGET, P0_C, P0_CD, P0_D, EST_MU, MAX_SPREAD, READY_VAR,
+    Q_C, C0, MIN_ACC, OFF_FORGET, FUSED, P0_B, BIAS_VAR, N_C, V, TH, P11, P12, P22, R, K, BK, F_IN, F_OK, REJ,
+    FORCE_IN, GT_LAST, GT_REJ, GV_LAST, GV_REJ, GF_LAST, GF_REJ, LF1, LF2, LF_OK, LV1, LV2, LV_OK, LQ1, LQ2, LQ_OK,
+    LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
+    ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
+    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, N_S, N_HIST_MAX,
+)
+from .fused_kernel import fused_mass_step as _fused_mass_step
 
 try:  # numba is a dependency (pyproject.toml); the fallback keeps the package importable without it
     from numba import njit
@@ -36,142 +52,6 @@ HAVE_NUMBA = njit.__module__.startswith("numba")
 
 _kf_update = njit(cache=True, inline="always")(filters.kalman_update_2x2_h1)
 _repair = njit(cache=True, inline="always")(filters.repair_pd_2x2)
-
-
-# --- settings C ---------------------------------------------------------------------------------------------------
-GAP_S = 0
-DT_NOM = 1
-RADIUS = 2
-M_ROT = 3
-M_REF = 4
-M_RIGID = 5
-C_MIN = 6
-C_MAX = 7
-MU0 = 8
-MU_MAX = 9
-CUT_HZ = 10
-FAST_HZ = 11
-CHAIN_L = 12
-SWAY_DAMP = 13
-SWAY_H = 14
-MIN_SPEED = 15
-MIN_FORCE = 16
-SETTLE_S = 17
-T_MAX = 18
-T_RATE = 19
-T_BAND = 20
-V_MAX = 21
-V_RATE = 22
-V_BAND = 23
-F_MAX = 24
-F_RATE = 25
-F_BAND = 26
-RELOCK = 27
-GATES = 28
-R0 = 29
-R_MIN = 30
-R_MAX = 31
-FADING = 32
-ADAPT_R = 33
-ACC_VAR = 34
-MODEL_ACC_VAR = 35
-GRADE_VAR_M = 36
-P0_TH = 37
-GATE2 = 38
-MAX_SLOPE = 39
-USE_ACCEL = 40
-HIST_DS = 41
-N_HIST = 42
-R_M = 43
-DELTA = 44
-SIGMA = 45
-MASS_FORGET = 46
-P0_C = 47
-P0_CD = 48
-P0_D = 49
-EST_MU = 50
-MAX_SPREAD = 51
-READY_VAR = 52
-Q_C = 53
-C0 = 54
-MIN_ACC = 55
-OFF_FORGET = 56
-FUSED = 57
-P0_B = 58
-BIAS_VAR = 59
-N_C = 60
-# --- state S ------------------------------------------------------------------------------------------------------
-V = 0
-TH = 1
-P11 = 2
-P12 = 3
-P22 = 4
-R = 5
-K = 6
-BK = 7
-F_IN = 8
-F_OK = 9
-REJ = 10
-FORCE_IN = 11
-GT_LAST = 12
-GT_REJ = 13
-GV_LAST = 14
-GV_REJ = 15
-GF_LAST = 16
-GF_REJ = 17
-LF1 = 18
-LF2 = 19
-LF_OK = 20
-LV1 = 21
-LV2 = 22
-LV_OK = 23
-LQ1 = 24
-LQ2 = 25
-LQ_OK = 26
-LA1 = 27
-LA2 = 28
-LA_OK = 29
-LS1 = 30
-LS2 = 31
-LS_OK = 32
-LC1 = 33
-LC2 = 34
-LC_OK = 35
-PREV_VF = 36
-PREV_VQ = 37
-SWAY = 38
-SWAY_RATE = 39
-T_VALID = 40
-T_MISSING = 41
-ACC_F = 42
-A_LOAD = 43
-MC = 44
-MD = 45
-PC = 46
-PCD = 47
-PD = 48
-RES_VAR = 49
-LAMBDA = 50
-N_MASS = 51
-DIST = 52
-NEXT_S = 53
-HEAD = 54
-HSUM = 55
-MOVED = 56
-TH_TRAIN = 57
-SPREAD = 58
-N_GAPS = 59
-TH_WIN = 60
-LL1 = 61
-LL2 = 62
-LL_OK = 63
-MB = 64
-PB = 65
-PCB = 66
-PDB = 67
-DIST0 = 68
-N_S = 69
-N_HIST_MAX = 512
 
 
 @njit(cache=True, inline="always")
@@ -504,84 +384,6 @@ def step(S, H, C, torque, speed, accel, dt):
         S[MD] = min(max(dd, -C[MU_MAX] * c), C[MU_MAX] * c)
     else:
         S[MD] = min(max(dd, 0.0), C[MU_MAX] * c)
-    S[RES_VAR] += 0.002 * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
-    S[LAMBDA] = lam
-    S[N_MASS] += 1.0
-
-
-@njit(cache=True)
-def _fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
-    """Fused observer's regression on three parameters ``[c, o, beta]`` (c = M/M_ref, o = resistance-and-bias
-    offset, beta = c alpha, alpha = weight of the slope under the sensors in the slope gravity acts on)::
-
-        y = c (a_load + g sin th_win) + o g + beta g (sin th_loc - sin th_win)
-
-    Vector forgetting (c and beta: constants of a run; o: the dynamic lambda), c only from accelerations (Schmidt
-    update otherwise), covariance bounded by the prior and repaired to symmetric PD."""
-    g = G_MPS2
-    h1 = a_l + g * sin_win
-    h2 = g
-    h3 = g * (sin_loc - sin_win)
-    c, o, b = S[MC], S[MD], S[MB]
-    p11, p12, p22 = S[PC] + C[Q_C], S[PCD], S[PD]
-    p13, p23, p33 = S[PCB], S[PDB], S[PB] + C[Q_C]
-    e = y - h1 * c - h2 * o - h3 * b
-    lam = C[DELTA] + (1.0 - C[DELTA]) * math.exp(-C[SIGMA] * abs(e))
-    lm = 1.0 - C[MASS_FORGET] * (1.0 - lam)
-    ld = 1.0 - C[OFF_FORGET] * (1.0 - lam)
-    lb = lm
-    if p11 / lm >= C[P0_C]:
-        lm = 1.0
-    if p22 / ld >= C[P0_D]:
-        ld = 1.0
-    if p33 / lb >= C[P0_B]:
-        lb = 1.0
-    p11 /= lm
-    p22 /= ld
-    p33 /= lb
-    p12 /= math.sqrt(lm * ld)
-    p13 /= math.sqrt(lm * lb)
-    p23 /= math.sqrt(ld * lb)
-    q1 = p11 * h1 + p12 * h2 + p13 * h3
-    q2 = p12 * h1 + p22 * h2 + p23 * h3
-    q3 = p13 * h1 + p23 * h2 + p33 * h3
-    s_m = C[R_M] + h1 * q1 + h2 * q2 + h3 * q3
-    if use_rate and e * e > 100.0 * s_m:
-        return
-    consider = abs(a_l) < C[MIN_ACC]
-    if not consider:
-        c += q1 / s_m * e
-        p11 -= q1 * q1 / s_m
-    o += q2 / s_m * e
-    p12 -= q1 * q2 / s_m
-    p13 -= q1 * q3 / s_m
-    p22 -= q2 * q2 / s_m
-    p23 -= q2 * q3 / s_m
-    if learn_b and consider:
-        # beta only at steady speed (grade changes are its information), c only from accelerations: a residual
-        # of the start or stop dynamics must not be read as a gravity blend; else beta is a considered parameter
-        # too (zero gain, variance kept)
-        b += q3 / s_m * e
-        p33 -= q3 * q3 / s_m
-    # PD repair: floors on the diagonal, then shrink the correlations until every leading minor is positive
-    p11 = p11 if p11 >= 1e-14 else 1e-14
-    p22 = p22 if p22 >= 1e-16 else 1e-16
-    p33 = p33 if p33 >= 1e-14 else 1e-14
-    if not (abs(p12) < math.inf and abs(p13) < math.inf and abs(p23) < math.inf):
-        p12 = p13 = p23 = 0.0
-    for _ in range(60):
-        m2 = p11 * p22 - p12 * p12
-        det = p11 * (p22 * p33 - p23 * p23) - p12 * (p12 * p33 - p23 * p13) + p13 * (p12 * p23 - p22 * p13)
-        if m2 > 1e-6 * p11 * p22 and det > 1e-9 * p11 * p22 * p33:
-            break
-        p12 *= 0.7
-        p13 *= 0.7
-        p23 *= 0.7
-    S[PC], S[PCD], S[PD], S[PCB], S[PDB], S[PB] = p11, p12, p22, p13, p23, p33
-    c = min(max(c, C[C_MIN]), C[C_MAX])
-    S[MC] = c
-    S[MD] = min(max(o, -C[MU_MAX] * c), C[MU_MAX] * c)
-    S[MB] = min(max(b, -0.2 * c), 1.2 * c)
     S[RES_VAR] += 0.002 * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
     S[LAMBDA] = lam
     S[N_MASS] += 1.0

@@ -8,13 +8,14 @@ differs in the force balance, which here fuses all on-board signals in one regre
     (T/r − m_rot a − M_rigid (a − a_L)) / M_ref = c (a_L + g sin θ_win) + o g + β g (sin θ_s − sin θ_win)
 
 - ``c = M / M_ref``: the mass (updated only from accelerations; at constant speed it is a considered parameter);
-- ``o``: the offset ``c (μ cos θ − b/g)`` of the running resistance and the accelerometer bias ``b``, forgotten with
-  the paper's dynamic factor, so a vehicle file whose μ is wrong does not become a mass error;
+- ``o``: the offset ``c (μ cos θ − b/g)`` of the running resistance and the accelerometer bias ``b``, forgotten 20x
+  slower than the paper's dynamic factor asks (``offset_forgetting_ratio=0.05``), so a vehicle file whose μ is wrong
+  does not become a mass error and a grade change is explained by α rather than by the offset;
 - ``β = c α``: ``α`` is the weight of the slope under the sensors in the slope gravity acts on, the rest being the
   mean slope ``θ_win`` over ``train_length_m`` behind the sensors (14 m, as ``dffrls-aekf``).
   A point mass has ``α = 1``; on the project's plant (drive section at the front, payload 9 m behind) it is learned
-  at 0-0.4. α is learned at every grade change, where the two slopes differ, once the window holds slopes measured
-  on the way (before that it keeps its prior 0.5 ± 0.5).
+  at about 0.3 (median over 40 random runs; 5-95 % 0.0-0.74). α is learned at grade changes at steady speed, where
+  the two slopes differ, once the window holds slopes measured on the way (before that: its prior 0.5 ± 0.5).
 - ``a_L``: the acceleration of the load swinging on its chains (a pendulum forced by dv/dt), the swing as a modelled
   disturbance.
 

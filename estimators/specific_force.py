@@ -50,7 +50,7 @@ from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
 from .filters import MAX_STEP_S, LowPass2, SpikeGate, check_dt, kalman_update_2x2_h1, repair_pd_2x2
-from .rls import RegressionFrontEnd
+from .regression_front_end import RegressionFrontEnd
 
 __all__ = ["SpecificForceKF"]
 

@@ -14,7 +14,7 @@ import pytest
 
 import estimators
 from estimators import dffrls_aekf_kernel as kern
-from estimators.rls import RegressionFrontEnd
+from estimators.regression_front_end import RegressionFrontEnd
 from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
 
 

@@ -52,6 +52,9 @@ belief is kept within ``[0.5, 1.02] x`` nominal. The filter does not estimate ma
 the prior (mid-range mass, level track) with large standard deviations. Its results are in ``extras``:
 ``slip_ratio``, ``slip_ratio_std``, ``drive_radius_m``, ``drive_radius_m_std``, ``macro_slip_prob`` (posterior
 probability of the macro-slip regime) and ``ess_fraction``.
+
+(Module length, ~430 lines: one filter class whose docstrings are its manual, one method per step above; the tuning
+lives in :mod:`estimators.aupf_config`.)
 """
 
 from __future__ import annotations
@@ -252,23 +255,38 @@ class AUPFEstimator(Estimator):
         can_update = math.isfinite(speed_mps) and math.isfinite(omega) and abs(speed_mps) >= self._v_min
         if dt_s <= 0.0:
             return self._estimate
-        n = self.n_particles
-        rng = self._rng
-        # 1. regime transitions (Markov chain; onset more likely when traction exceeds the wet-rail adhesion)
-        u = abs(torque) / (self._rho * self._clamp_n)
-        logistic_arg = np.clip((u - self._u_onset) / 0.01, -50.0, 50.0)
-        onset = self._rate_spont + self._rate_onset / (1.0 + np.exp(-logistic_arg))
-        p_switch = np.where(self._s == 1, -math.expm1(-self._rate_recover * dt_s), -np.expm1(-onset * dt_s))
-        flip = rng.random(n) < p_switch
-        self._s = np.where(flip, 1 - self._s, self._s).astype(np.int8)
-        macro = self._s == 1
+        macro = self._switch_regimes(torque, dt_s)
         a = min(dt_s / self._tau, 1.0)
         q_i = np.where(macro, self._q_macro, self._q_adh) * dt_s
         q_r = self._q_r * dt_s
         m_i = self._slip_mean(self._i, self._rho, macro, torque, a)
+        if not can_update:
+            self._predict_only(speed_mps, omega, m_i, q_i, q_r)
+        else:
+            y = float(speed_mps)
+            hat_i, hat_p = self._aukf_proposal(y, omega, macro, torque, a, q_i, q_r)
+            self._sample_and_weigh(y, omega, m_i, hat_i, hat_p, q_i, q_r)
+        self._estimate = self._summary()
+        return self._estimate
+
+    def _switch_regimes(self, torque: float, dt_s: float) -> np.ndarray:
+        """Step 1: draw every particle's regime from the Markov chain; returns the macro-slip mask.
+
+        Onset is more likely when the traction exceeds the wet-rail adhesion.
+        """
+        u = abs(torque) / (self._rho * self._clamp_n)
+        logistic_arg = np.clip((u - self._u_onset) / 0.01, -50.0, 50.0)
+        onset = self._rate_spont + self._rate_onset / (1.0 + np.exp(-logistic_arg))
+        p_switch = np.where(self._s == 1, -math.expm1(-self._rate_recover * dt_s), -np.expm1(-onset * dt_s))
+        flip = self._rng.random(self.n_particles) < p_switch
+        self._s = np.where(flip, 1 - self._s, self._s).astype(np.int8)
+        return self._s == 1
+
+    def _predict_only(self, speed_mps: float, omega: float, m_i: np.ndarray, q_i: np.ndarray, q_r: float) -> None:
+        """No usable measurement (missing, or near standstill): propagate the particles, weights unchanged."""
+        n = self.n_particles
         spinning = (
-            not can_update
-            and math.isfinite(speed_mps)
+            math.isfinite(speed_mps)
             and math.isfinite(omega)
             and abs(omega) * self._r_nom >= max(2.0 * self._v_min, 2.0 * abs(speed_mps))  # slip > ~0.5
         )
@@ -277,18 +295,19 @@ class AUPFEstimator(Estimator):
             rim = omega * self._rho
             slip = (rim - speed_mps) / np.maximum(np.abs(rim), abs(speed_mps))
             noise = math.sqrt(self._r0) / np.abs(rim)
-            self._i = np.clip(slip + noise * rng.standard_normal(n), -self._max_slip, self._max_slip)
+            self._i = np.clip(slip + noise * self._rng.standard_normal(n), -self._max_slip, self._max_slip)
             self._s = np.where(slip > 0.0, 1, self._s).astype(np.int8)
-            self._sig = self._sig + q_r
-            self._estimate = self._summary()
-            return self._estimate
-        if not can_update:
-            self._i = np.clip(m_i + np.sqrt(q_i) * rng.standard_normal(n), -self._max_slip, self._max_slip)
-            self._sig = self._sig + q_r
-            self._estimate = self._summary()
-            return self._estimate
-        y = float(speed_mps)
-        # 2. AUKF proposal per particle: prediction from ([i, rho], diag(0, Sigma)) ...
+        else:
+            self._i = np.clip(m_i + np.sqrt(q_i) * self._rng.standard_normal(n), -self._max_slip, self._max_slip)
+        self._sig = self._sig + q_r
+
+    def _aukf_proposal(self, y: float, omega: float, macro: np.ndarray, torque: float, a: float, q_i: np.ndarray,
+                       q_r: float) -> tuple[np.ndarray, np.ndarray]:
+        """Step 2: the adaptive UKF of every particle on ``[i, r]``; returns its slip marginal (mean, variance).
+
+        Prediction from ``([i, rho], diag(0, Sigma))``, unscented update with the measured ground speed (sigma
+        points redrawn), then the Sage-Husa adaptation of every particle's ``R``.
+        """
         g = self._gamma
         sd_r = np.sqrt(self._sig)
         r_sig = np.stack([self._rho, self._rho + g * sd_r, self._rho - g * sd_r], axis=1)
@@ -305,7 +324,6 @@ class AUPFEstimator(Estimator):
         c12 = (di * dr) @ w3c
         c22 = self._sig + q_r
         mr = self._rho
-        # ... and the unscented update with the measured ground speed (redrawn sigma points)
         l11 = np.sqrt(c11)
         l21 = c12 / l11
         l22 = np.sqrt(np.maximum(c22 - l21 * l21, 1e-300))
@@ -321,12 +339,15 @@ class AUPFEstimator(Estimator):
         k_i = pxy / s_y
         hat_i = mi + k_i * innov
         hat_p = np.maximum(c11 - k_i * k_i * s_y, 1e-12)
-        # adaptive measurement noise (Sage-Husa, per particle)
         self._k += 1
         d = sage_husa_weight(self._b, self._k)
         self._R = np.clip((1.0 - d) * self._R + d * (innov * innov - pyy), self._r_min, 1e4 * self._r0)
-        # 3. importance sampling of the slip; exact Kalman update of the radius given it
-        z = rng.standard_normal(n)
+        return hat_i, hat_p
+
+    def _sample_and_weigh(self, y: float, omega: float, m_i: np.ndarray, hat_i: np.ndarray, hat_p: np.ndarray,
+                          q_i: np.ndarray, q_r: float) -> None:
+        """Steps 3-4: draw the slip from the proposal, Kalman-update the radius given it, weigh, resample."""
+        z = self._rng.standard_normal(self.n_particles)
         new_i = np.clip(hat_i + np.sqrt(hat_p) * z, -self._max_slip, self._max_slip)
         h = np.where(new_i >= 0.0, omega * (1.0 - new_i), omega / (1.0 + new_i))
         sig_bar = self._sig + q_r
@@ -338,7 +359,6 @@ class AUPFEstimator(Estimator):
         e_q = new_i - hat_i
         log_trans = -0.5 * (e_t * e_t / q_i + np.log(q_i))
         log_q = -0.5 * (e_q * e_q / hat_p + np.log(hat_p))
-        # 4. weights in the log domain, underflow recovery, resampling
         if not np.all(np.isfinite(log_lik)) or float(log_lik.max()) < self._ll_floor:
             # no particle explains the sample: an outlier; learn nothing from it (predicted slip, radius prior)
             self._i = np.clip(m_i, -self._max_slip, self._max_slip)
@@ -360,8 +380,6 @@ class AUPFEstimator(Estimator):
         self._ess = 1.0 / float(w @ w)
         if self._ess < self._ess_min:
             self._resample(w)
-        self._estimate = self._summary()
-        return self._estimate
 
     def _recover_from_underflow(self) -> None:
         # no particle explains the sample: restart the weights and widen the radius beliefs, never divide by 0

@@ -40,7 +40,7 @@ from uuom_core.trace import Trace
 from .metrics import consistency, error_after_settling, settling_time_s
 from .registry import available, get_class, make
 
-__all__ = ["MASS_SETTLE_TOL_PCT", "fingerprint", "run_protocol", "score_trace", "usable_estimators"]
+__all__ = ["MASS_SETTLE_TOL_PCT", "cached_rows", "fingerprint", "run_protocol", "score_trace", "usable_estimators"]
 
 MASS_SETTLE_TOL_PCT = 2.0
 """Tolerance of the mass settling time (the issue's 2 % target)."""
@@ -276,3 +276,32 @@ def run_protocol(
         if fh is not None:
             fh.close()
     return [done[k] for spec in specs for n, fp in zip(names, prints) if (k := key(spec.name, n, fp)) in done]
+
+
+def cached_rows(cache: str | Path, specs: Sequence[Any], names: Sequence[str]) -> list[dict[str, Any]]:
+    """Rows of ``specs`` x ``names`` from a cache whatever the code version, one version per estimator.
+
+    For each estimator the version (estimator, scoring and world fingerprints of the key) that covers the most of
+    ``specs`` is taken, the later one on a tie, so a report never mixes two versions of one estimator. Each row's
+    ``key`` names its version.
+    """
+    wanted = {s.name for s in specs}
+    by_version: dict[tuple[str, str], dict[str, dict[str, Any]]] = {}
+    for line in Path(cache).read_text(encoding="utf-8").splitlines():
+        if not line.strip():
+            continue
+        row = json.loads(line)
+        run, name, version = row["key"].split("|", 2)
+        if run in wanted and name in names:
+            by_version.setdefault((name, version), {})[run] = row
+    out: list[dict[str, Any]] = []
+    chosen: dict[str, dict[str, dict[str, Any]]] = {}
+    for (name, _), rows in by_version.items():  # insertion order = first appearance in the file
+        if name not in chosen or len(rows) >= len(chosen[name]):
+            chosen[name] = rows
+    for spec in specs:
+        for name in names:
+            row = chosen.get(name, {}).get(spec.name)
+            if row is not None:
+                out.append(row)
+    return out

@@ -277,6 +277,10 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, *, command: st
         f"errors after {settle_s:g} s; runs: " + ", ".join(f"{k} {len(v)}" for k, v in counts.items()) + ".",
         "",
     ]
+    versions = dict.fromkeys(f"`{r['estimator']}` {r['key'].split('|')[2]}" for r in rows if "key" in r)
+    if versions:
+        lines += ["Estimator code versions (source fingerprints, `estimators.protocol.fingerprint`): "
+                  + ", ".join(versions) + ".", ""]
     if skipped:
         lines += ["Not scored: " + "; ".join(f"`{k}` ({v})" for k, v in skipped.items()) + ".", ""]
     bad = sorted({(r["estimator"], r.get("error", "non-finite output")) for r in rows

@@ -12,7 +12,8 @@ Usage::
 
     python scripts/estimator_protocol.py                      # 200 + 200 random runs, paper and fault runs
     python scripts/estimator_protocol.py --quick              # 4 + 4 runs, 1 paper seed, 1 fault seed
-    python scripts/estimator_protocol.py --report-only        # tables and figures from the cache
+    python scripts/estimator_protocol.py --report-only        # tables and figures from the cache (for each
+                                                              # estimator the code version with the most runs)
 
 The slowest estimators (``--slow``, default ekf, imu-ukf, mmae: about 2/3 of the CPU time) are scored on the
 first ``--slow-runs`` random runs of each world only, and on all the fixed and fault runs; the report gives the
@@ -26,7 +27,7 @@ import os
 import sys
 from pathlib import Path
 
-from estimators.protocol import fingerprint, run_protocol, usable_estimators
+from estimators.protocol import cached_rows, fingerprint, run_protocol, usable_estimators
 from estimators.protocol_report import write_report
 from uuom_gym.sim.protocol_runs import make_run, protocol_runs, runs_fingerprint
 
@@ -60,18 +61,18 @@ def main(argv: list[str] | None = None) -> int:
     specs = protocol_runs(args.plant_runs, args.point_runs, duration_s=args.duration_s,
                           paper_seeds=args.paper_seeds, fault_seeds=args.fault_seeds)
     Path(args.cache).parent.mkdir(parents=True, exist_ok=True)
-    if args.report_only:
-        args.workers = 0
     slow = [n for n in names if n in set(args.slow.split(","))] if args.slow else []
     fast = [n for n in names if n not in slow]
     few = [s for s in specs if s.group not in ("plant", "point") or s.index < args.slow_runs]
     rows = []
-    for subset, group in ((specs, fast), (few, slow)):
-        if group:
-            rows += run_protocol(subset, make_run, group, settle_s=args.settle_s, workers=max(args.workers, 1),
-                                 cache=args.cache, world_version=runs_fingerprint(),
-                                 progress=None if args.report_only else lambda m: print(m, flush=True),
-                                 compute=not args.report_only)
+    if args.report_only:
+        rows = cached_rows(args.cache, specs, names)
+    else:
+        for subset, group in ((specs, fast), (few, slow)):
+            if group:
+                rows += run_protocol(subset, make_run, group, settle_s=args.settle_s, workers=args.workers,
+                                     cache=args.cache, world_version=runs_fingerprint(),
+                                     progress=lambda m: print(m, flush=True))
     command = "python scripts/estimator_protocol.py " + " ".join(argv if argv is not None else sys.argv[1:])
     paths = write_report(rows, args.out, command=command.strip(), skipped=skipped, settle_s=args.settle_s)
     for p in paths:

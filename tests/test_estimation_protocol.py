@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from estimators.protocol import fingerprint, run_protocol, score_trace, usable_estimators
+from estimators.protocol import cached_rows, fingerprint, run_protocol, score_trace, usable_estimators
 from estimators.protocol_report import write_report
 from uuom_gym.sim.protocol_runs import FAULT_KINDS, RunSpec, make_run, protocol_runs, runs_fingerprint
 
@@ -78,6 +78,10 @@ def test_cache_reuses_rows_and_report_is_written(tmp_path: Path) -> None:
     assert [r["mass_max_pct"] for r in again] == [r["mass_max_pct"] for r in rows]
     assert "recovered_mass_max_pct" in rows[-1]
     assert json.loads(cache.read_text().splitlines()[0])["key"].startswith("point-000|sf-kf|" + fingerprint("sf-kf"))
+    # a report of a cache whose code changed since: one version per estimator, the one with the most runs
+    with cache.open("a") as fh:
+        fh.write(json.dumps(rows[0] | {"key": rows[0]["key"].replace("|" + fingerprint("sf-kf"), "|old")}) + "\n")
+    assert [r["key"] for r in cached_rows(cache, specs, FAST)] == [r["key"] for r in rows]
     paths = write_report(rows, tmp_path / "out", command="test", skipped={"x": "why"}, figures=False)
     text = paths[0].read_text()
     assert "`sf-kf` | (b) point mass | 1 |" in text and "Not scored: `x` (why)" in text

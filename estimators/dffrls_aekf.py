@@ -198,6 +198,8 @@ class DFFRLSAEKFConfig:
             raise ValueError("dffrls-aekf: fused needs offset_forgetting_ratio > 0 and estimate_mu")
         C[kern.P0_B] = (self.blend_prior_std * c0) ** 2
         C[kern.BIAS_VAR] = self.accel_bias_std_mps2**2
+        # samples per independent one of the regression's low-passed signals, 1 / (2 f_c dt) (100 at 1 Hz, 200 Hz)
+        C[kern.CORR_N] = max(1.0, 1.0 / (2.0 * self.cutoff_hz * self.dt_nominal_s))
         C[kern.MIN_FORCE] = self.min_traction_fraction * v.max_traction_n
         C[kern.SETTLE_S] = self.settle_s
         # torque may step with the driver's command; speed may not jump (a <= ~3 m/s^2); specific force <= 3 g

@@ -32,7 +32,8 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     SWAY_H, MIN_SPEED, MIN_FORCE, SETTLE_S, T_MAX, T_RATE, T_BAND, V_MAX, V_RATE, V_BAND, F_MAX, F_RATE, F_BAND,
     RELOCK, GATES, R0, R_MIN, R_MAX, FADING, ADAPT_R, ACC_VAR, MODEL_ACC_VAR, GRADE_VAR_M, P0_TH, GATE2, MAX_SLOPE,
     USE_ACCEL, HIST_DS, N_HIST, R_M, DELTA, SIGMA, MASS_FORGET, P0_C, P0_CD, P0_D, EST_MU, MAX_SPREAD, READY_VAR,
-    Q_C, C0, MIN_ACC, OFF_FORGET, FUSED, P0_B, BIAS_VAR, N_C, V, TH, P11, P12, P22, R, K, BK, F_IN, F_OK, REJ,
+    Q_C, C0, MIN_ACC, OFF_FORGET, FUSED, P0_B, BIAS_VAR, CORR_N, N_C, V, TH, P11, P12, P22, R, K, BK, F_IN, F_OK,
+    REJ,
     FORCE_IN, GT_LAST, GT_REJ, GV_LAST, GV_REJ, GF_LAST, GF_REJ, LF1, LF2, LF_OK, LV1, LV2, LV_OK, LQ1, LQ2, LQ_OK,
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
@@ -393,10 +394,12 @@ def step(S, H, C, torque, speed, accel, dt):
 def estimate(S, C, out):
     """Write (mass, slope, mass_std, slope_std, mu, mu_std, alpha) into ``out`` (alpha: fused only, else 0)."""
     c = S[MC]
-    infl = max(1.0, S[RES_VAR] / C[R_M])
+    # the regression counts every 5 ms sample as independent, but its low-passed signals are correlated over
+    # ~CORR_N samples: the parameter variance is that much too small
+    infl = max(1.0, S[RES_VAR] / C[R_M]) * C[CORR_N]
     out[0] = c * C[M_REF]
     out[1] = S[TH_TRAIN]
-    out[2] = math.sqrt(S[PC] * infl) * C[M_REF]
+    out[2] = math.sqrt(min(S[PC] * infl, C[P0_C])) * C[M_REF]  # never above the prior
     var_th = S[P22]
     if C[FUSED] != 0.0:
         # + the accelerometer bias (not separable from the resistance, so never learned) + the blend weight

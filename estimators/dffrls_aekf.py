@@ -18,7 +18,8 @@ the project's plant: the drive section at the front). The reported slope is the 
 ``train_length_m`` of travel (a history along the distance travelled), which is what gravity acts on and what
 the safety rules use. Default 14 m, not the vehicle's 18.1 m: the train's mass is not spread evenly (on the
 plant the payload hangs 9 m behind the sensors); on plant tuning runs 1000-1015 a 18.1 m window gave a median
-slope RMSE of 0.80°, 14 m 0.37°, 10 m 0.39° (before the start-up history fix; after it 14 m: 0.26°). ``train_length_m=0``: a point mass, the local slope. This window is
+slope RMSE of 0.80°, 14 m 0.37°, 10 m 0.39° (before the start-up history fix; after it 14 m: 0.26°).
+``train_length_m=0``: a point mass, the local slope. This window is
 a fixed geometry assumption: on a world where gravity acts at one point it lags every grade change.
 
 **Mass layer: DFFRLS on the specific-force regression of the whole train**::
@@ -140,7 +141,8 @@ class DFFRLSAEKFConfig:
                     "gate_sigma", "history_step_m", "sigma", "residual_std_mps2", "mu_prior_std", "mu_max",
                     "slope_ready_std_rad", "gap_s", "dt_nominal_s", "max_slope_spread_rad")
         non_negative = ("chain_length_m", "mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio",
-                        "hook_mass_kg", "min_speed_mps", "min_accel_mps2", "offset_forgetting_ratio", "accel_bias_std_mps2",
+                        "hook_mass_kg", "min_speed_mps", "min_accel_mps2", "offset_forgetting_ratio",
+                        "accel_bias_std_mps2",
                         "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after")
         for name in positive + non_negative:
             x = getattr(self, name)
@@ -153,7 +155,8 @@ class DFFRLSAEKFConfig:
         if not (0.0 < self.fading < 1.0):
             raise ValueError(f"dffrls-aekf: fading must be in (0, 1), got {self.fading!r}")
         if self.mass_forgetting_ratio > 1.0:
-            raise ValueError(f"dffrls-aekf: mass_forgetting_ratio must be in [0, 1], got {self.mass_forgetting_ratio!r}")
+            raise ValueError(
+                f"dffrls-aekf: mass_forgetting_ratio must be in [0, 1], got {self.mass_forgetting_ratio!r}")
         mu0 = v.running_resistance if self.running_resistance is None else float(self.running_resistance)
         if not (0.0 <= mu0 < 0.5):
             raise ValueError(f"dffrls-aekf: running_resistance must be in [0, 0.5), got {mu0!r}")

@@ -32,7 +32,8 @@ written in Joseph form (equal to the printed ``(I − K H) P`` for the optimal g
 or beyond any physical value (|T| > 10× the maximum drive torque, |v| > 50 m/s, |a| > 50 m/s²) count as missing;
 ``dt`` NaN/zero/negative ignores the sample and a ``dt`` above :data:`~estimators.filters.MAX_STEP_S` is cut to
 it; the reported mass ``1/χ₁`` (which can be negative or infinite) is clipped to the vehicle's mass range, and the
-slope layer uses that reported mass; the reported slope is clipped to ±45°; a layer whose state still became non-finite restarts from its prior.
+slope layer uses that reported mass; the reported slope is clipped to ±45°; a layer whose state still became non-finite
+restarts from its prior.
 """
 
 from __future__ import annotations

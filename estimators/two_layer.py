@@ -4,7 +4,9 @@ layer for the mass feeding an extended Kalman filter for the slope.
 - ``rls-ekf`` (:class:`RLSEKF`): RLS (λ = 1) mass → fixed-noise EKF slope (paper baseline).
 
 The paper's own two-layer method is ``dffrls-aekf-paper`` (:mod:`estimators.dffrls_aekf_paper`, as printed) and
-``dffrls-aekf`` (:mod:`estimators.dffrls_aekf`, the project's variant). ``rls-ekf`` reports the mass of the RLS layer and the slope of the EKF layer, with their 1-sigma standard deviations.
+``dffrls-aekf`` (:mod:`estimators.dffrls_aekf`, the project's variant). ``rls-ekf`` reports the mass of the RLS
+layer and the slope of the EKF layer, with their 1-sigma standard deviations.
+
 Accelerometer: like the paper, it does not use the accelerometer column; the RLS layer uses the low-passed derivative
 of the measured ground speed as the acceleration ``dv/dt`` and the EKF layer measures speed only (see
 :mod:`estimators.rls` and :mod:`estimators.ekf`). The estimator that does use the accelerometer (specific force)

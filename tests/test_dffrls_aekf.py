@@ -82,7 +82,8 @@ def test_compiled_kernel_matches_the_pure_python_reference(name: str, faulty: Tr
         "d = np.load(%r)\n"
         "tr = Trace({k: d[k] for k in d.files})\n"
         "s = estimators.make(%r).run(tr)\n"
-        "np.save(%r, np.c_[s.mass_kg, s.slope_rad, s.mass_std_kg, s.slope_std_rad, s.extras['mu'], s.extras['mu_std']])\n"
+        "np.save(%r, np.c_[s.mass_kg, s.slope_rad, s.mass_std_kg, s.slope_std_rad,\n"
+        "                  s.extras['mu'], s.extras['mu_std']])\n"
     ) % (ROOT, str(tmp_path / "in.npz"), name, str(path))
     np.savez(tmp_path / "in.npz", **{k: v[:short] for k, v in faulty.columns.items()})
     env = dict(os.environ, NUMBA_DISABLE_JIT="1")

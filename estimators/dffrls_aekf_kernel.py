@@ -270,6 +270,15 @@ def step(S, H, C, torque, speed, accel, dt):
 
     # ---------------- regression front end: F = T/r, v, dv/dt, the swinging load --------------------------------
     a = 1.0 - math.exp(-2.0 * math.pi * C[CUT_HZ] * dt)
+    if T == T and z == z and S[T_MISSING] > 0.1:
+        # first good sample after a dropout: restart the signal filters at it; a held input jumping to the new
+        # value would read as an acceleration and kick the load pendulum, which then rings for tens of seconds
+        for i in (LF_OK, LV_OK, LQ_OK, LA_OK, LS_OK, LC_OK, LL_OK):
+            S[i] = 0.0
+        S[PREV_VF] = math.nan
+        S[PREV_VQ] = math.nan
+        S[SWAY] = 0.0
+        S[SWAY_RATE] = 0.0
     F = _lp(S, LF1, T / C[RADIUS] if T == T else math.nan, a)
     vf = _lp(S, LV1, z, a)
     if S[LV_OK] == 0.0:  # no valid speed yet

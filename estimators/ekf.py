@@ -136,8 +136,8 @@ class SlopeEKF:
         self.P22 = min(P22 + q22, self.P0_22)
 
     def update(self, speed_mps: float) -> float:
-        """Correct with a speed measurement (NaN: no correction). Returns the innovation (0.0 when none)."""
-        if speed_mps != speed_mps:
+        """Correct with a speed measurement (NaN or ±inf: no correction). Returns the innovation (0.0 when none)."""
+        if not (abs(speed_mps) < math.inf):  # NaN fails the comparison too; an infinite speed is no measurement
             return 0.0
         if self.v != self.v:
             self.v = speed_mps

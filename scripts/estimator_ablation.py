@@ -29,7 +29,7 @@ from uuom_gym.sim.protocol_runs import RunSpec, make_run
 VARIANTS: list[tuple[str, str, dict]] = [
     ("dffrls-aekf (all deviations)", "dffrls-aekf", {}),
     ("- accelerometer drives the slope EKF (paper's torque/mass model)", "dffrls-aekf", {"use_accel": False}),
-    ("- slope under the train, 14 m window (point slope)", "dffrls-aekf", {"train_length_m": 0.0}),
+    ("- slope under the train, 12 m window (point slope)", "dffrls-aekf", {"train_length_m": 0.0}),
     ("- load pendulum in the regression (rigid load)", "dffrls-aekf", {"chain_length_m": 0.0}),
     ("- vector forgetting (paper's single lambda)", "dffrls-aekf", {"mass_forgetting_ratio": 1.0}),
     ("- offset parameter (mu cos(theta) regressor)", "dffrls-aekf", {"offset_forgetting_ratio": 0.0}),

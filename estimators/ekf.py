@@ -244,7 +244,7 @@ class JointEKF(Estimator):
             self.force = T / self.r
         x = self.x
         if x[0] != x[0]:
-            if speed_mps == speed_mps:
+            if abs(speed_mps) < math.inf:
                 x[0] = speed_mps
             return self.estimate
         v, th, c = float(x[0]), float(x[1]), float(x[2])
@@ -262,7 +262,7 @@ class JointEKF(Estimator):
         Q = np.diag([self.acc_var * dt_s * dt_s, self.grade_var * dt_s if moving else 0.0,
                      self.c_var * dt_s if moving else 0.0])
         P = F @ self.P @ F.T + Q
-        if speed_mps == speed_mps:
+        if abs(speed_mps) < math.inf:
             eps = speed_mps - x[0]
             S = P[0, 0] + self.R
             if eps * eps <= self.gate2 * S or self.rejected >= 40:

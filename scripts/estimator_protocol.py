@@ -29,7 +29,8 @@ from pathlib import Path
 
 from estimators.protocol import cached_rows, fingerprint, run_protocol, usable_estimators
 from estimators.protocol_report import write_report
-from uuom_gym.sim.protocol_runs import make_run, protocol_runs, runs_fingerprint
+from uuom_core.vehicle import DEFAULT_VEHICLE
+from uuom_gym.sim.protocol_runs import make_run, protocol_runs, runs_fingerprint, true_running_resistance
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,7 +75,12 @@ def main(argv: list[str] | None = None) -> int:
                                      cache=args.cache, world_version=runs_fingerprint(),
                                      progress=lambda m: print(m, flush=True))
     command = "python scripts/estimator_protocol.py " + " ".join(argv if argv is not None else sys.argv[1:])
-    paths = write_report(rows, args.out, command=command.strip(), skipped=skipped, settle_s=args.settle_s)
+    if args.report_only:
+        command = (f"python scripts/estimator_protocol.py` (rows cached in `{args.cache}`), redrawn with "
+                   f"`{command.strip()}")
+    paths = write_report(rows, args.out, command=command.strip(), skipped=skipped, settle_s=args.settle_s,
+                         mu_by_run={s.name: true_running_resistance(s) for s in specs},
+                         mu_file=DEFAULT_VEHICLE.running_resistance)
     for p in paths:
         print(f"wrote {p}")
     return 0

@@ -11,7 +11,8 @@ import pytest
 
 from estimators.protocol import cached_rows, fingerprint, run_protocol, score_trace, usable_estimators
 from estimators.protocol_report import write_report
-from uuom_gym.sim.protocol_runs import FAULT_KINDS, RunSpec, make_run, protocol_runs, runs_fingerprint
+from uuom_gym.sim.protocol_runs import (FAULT_KINDS, RunSpec, make_run, protocol_runs, runs_fingerprint,
+                                        true_running_resistance)
 
 FAST = ["sf-kf", "dffrls"]
 
@@ -33,11 +34,14 @@ def test_random_runs_are_deterministic_and_differ_from_each_other() -> None:
     np.testing.assert_array_equal(a["accel_mps2"], b["accel_mps2"])
     other = make_run(RunSpec("point", "point-008", 8, 8, "point", duration_s=20.0))
     assert a["mass_kg"][0] != other["mass_kg"][0]
+    assert f"{true_running_resistance(spec):.4f}" == a.meta["mu"]
     assert a.meta["world"] == "point" and np.array_equal(a["effective_slope_deg"], a["slope_deg"])
 
 
 def test_random_plant_run_has_train_averaged_slope_and_a_load_in_range() -> None:
-    tr = make_run(RunSpec("plant", "plant-003", 3, 3, "plant", duration_s=20.0))
+    spec = RunSpec("plant", "plant-003", 3, 3, "plant", duration_s=20.0)
+    tr = make_run(spec)
+    assert f"{true_running_resistance(spec):.4f}" == tr.meta["mu"]
     assert "effective_slope_deg" in tr and np.all(np.isfinite(tr["effective_slope_deg"]))
     assert 16_000.0 <= tr["mass_kg"][0] <= 36_000.0
     assert 0.015 <= float(tr.meta["mu"]) <= 0.03
@@ -82,7 +86,8 @@ def test_cache_reuses_rows_and_report_is_written(tmp_path: Path) -> None:
     with cache.open("a") as fh:
         fh.write(json.dumps(rows[0] | {"key": rows[0]["key"].replace("|" + fingerprint("sf-kf"), "|old")}) + "\n")
     assert [r["key"] for r in cached_rows(cache, specs, FAST)] == [r["key"] for r in rows]
-    paths = write_report(rows, tmp_path / "out", command="test", skipped={"x": "why"}, figures=False)
+    paths = write_report(rows, tmp_path / "out", command="test", skipped={"x": "why"}, figures=False,
+                         mu_by_run={s.name: 0.02 for s in specs})
     text = paths[0].read_text()
     assert "`sf-kf` | (b) point mass | 1 |" in text and "Not scored: `x` (why)" in text
 

@@ -30,7 +30,7 @@ from uuom_core.limits import load_speed_limit_mps, max_climbable_grade_rad
 from uuom_core.trace import Trace
 from uuom_core.vehicle import DEFAULT_VEHICLE
 
-__all__ = ["FAULT_KINDS", "RunSpec", "make_run", "protocol_runs", "runs_fingerprint"]
+__all__ = ["FAULT_KINDS", "RunSpec", "make_run", "protocol_runs", "runs_fingerprint", "true_running_resistance"]
 
 PROTOCOL_SEED = 20_261_123
 """Root of every draw: run ``i`` of group ``g`` uses ``numpy.random.default_rng([PROTOCOL_SEED, g, i])``."""
@@ -120,6 +120,15 @@ def runs_fingerprint() -> str:
     for path in (__file__, point_mass.__file__):
         h.update(Path(path).read_bytes())
     return h.hexdigest()[:12]
+
+
+def true_running_resistance(spec: RunSpec) -> float | None:
+    """The true running resistance a random run draws (without simulating it); None for the fixed runs."""
+    if spec.scenario != "random":
+        return None
+    rng = _rng(spec)
+    rng.uniform(0.0, DEFAULT_VEHICLE.rated_load_kg)  # the load: drawn first by both random-run builders
+    return float(rng.uniform(0.015, 0.03))
 
 
 def _rng(spec: RunSpec) -> np.random.Generator:

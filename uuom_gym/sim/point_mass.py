@@ -23,7 +23,8 @@ Physics (x along the track, phi the absolute pendulum angle from the vertical, t
     m L^2 phi'' + m L x'' cos(phi - theta) + m g L sin(phi) = -c phi'
 
 integrated with semi-implicit Euler at ``substeps`` x the 200 Hz sample rate. Everything is seeded and
-deterministic; the module depends only on :mod:`uuom_core`, numpy and scipy.
+deterministic; the module depends only on :mod:`uuom_core` and numpy. It is one module (a little over 400 lines)
+on purpose: the whole second world -- model, driver, sensors, faults, scenarios -- reads top to bottom in one file.
 """
 
 from __future__ import annotations

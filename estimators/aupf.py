@@ -52,6 +52,9 @@ belief is kept within ``[0.5, 1.02] x`` nominal. The filter does not estimate ma
 the prior (mid-range mass, level track) with large standard deviations. Its results are in ``extras``:
 ``slip_ratio``, ``slip_ratio_std``, ``drive_radius_m``, ``drive_radius_m_std``, ``macro_slip_prob`` (posterior
 probability of the macro-slip regime) and ``ess_fraction``.
+
+(Module length, ~430 lines: one filter class whose docstrings are its manual, one method per step above; the tuning
+lives in :mod:`estimators.aupf_config`.)
 """
 
 from __future__ import annotations
@@ -63,15 +66,24 @@ import numpy as np
 
 from uuom_core.vehicle import VehicleParams
 
+from .aupf_config import AUPFConfig, AUPFConfigError
 from .base import Estimate, Estimator
-from .filters import check_dt_non_negative, check_number_options, sage_husa_weight
+from .config import split_options
+from .filters import MAX_STEP_S, check_dt_non_negative, sage_husa_weight
+from .input_limits import InputLimits, plausible
 
 _LOG_2PI = math.log(2.0 * math.pi)
 _N_STATE = 2
 
 
-class AUPFConfigError(ValueError):
-    """An AUPF option that cannot work (names the option and the value)."""
+def _unscented_weights(n: int, alpha: float, beta: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """Sigma-point spread ``sqrt(n + lambda)`` and mean / covariance weights, ``lambda = n (alpha^2 - 1)``."""
+    lam = n * (alpha**2 - 1.0)
+    wm = np.full(2 * n + 1, 1.0 / (2.0 * (n + lam)))
+    wc = wm.copy()
+    wm[0] = lam / (n + lam)
+    wc[0] = lam / (n + lam) + (1.0 - alpha**2 + beta)
+    return math.sqrt(n + lam), wm, wc
 
 
 class AUPFEstimator(Estimator):
@@ -81,51 +93,16 @@ class AUPFEstimator(Estimator):
     ----------
     vehicle : VehicleParams, optional
         Nominal drive-wheel radius, clamp force, dry and wet adhesion come from here.
-    n_particles : int, default 64
-        Number of particles (each runs its own adaptive UKF for its proposal).
-    seed : int, default 0
-        Seed of the filter's own random generator (sampling, regime draws, resampling).
-    gear_ratio : float, default 1.0
-        ``motor_speed_radps / drive-wheel angular speed``.
-    initial_radius_std_m : float, default 0.005
-        Prior standard deviation of the radius around the nominal (unworn) one.
-    radius_process_std_m_per_sqrt_s : float, default 1e-5
-        Random-walk intensity of the radius (wear is slow).
-    slip_process_std : float, default 0.03
-        Slip process noise per sqrt(second) while adhering.
-    macro_slip_process_std : float, default 1.0
-        Slip process noise per sqrt(second) in macro-slip.
-    slip_time_constant_s : float, default 0.3
-        Relaxation time of the slip to the creep curve while adhering.
-    creep_slip : float, default 0.005
-        ``i_c`` of the creep curve.
-    adhesion : float, optional
-        ``mu_a`` of the creep curve; default the vehicle's dry-rail adhesion.
-    slip_onset_rate_hz, spontaneous_slip_rate_hz, slip_recovery_rate_hz : float, default 2.0, 0.01, 1.0
-        Regime-switch rates (see the module docstring).
-    max_slip : float, default 0.99
-        Bound of the slip ratio.
-    speed_std_mps : float, default 0.02
-        Initial ground-speed noise (adapted online).
-    motor_speed_std_radps : float, default 0.05
-        Drive-wheel speed noise, folded into the initial measurement noise.
-    noise_fading : float, default 0.995
-        Sage-Husa fading factor ``b``.
-    alpha, beta : float, default 1.0, 2.0
-        Unscented-transform parameters (paper 004: ``1e-4 <= alpha <= 1``, ``beta = 2``).
-    resample_ess_fraction : float, default 0.5
-        Resample when ESS < this fraction of ``n_particles``.
-    min_speed_mps : float, default 0.05
-        Below this ground speed the filter only predicts.
-    underflow_log_likelihood : float, default -30.0
-        Weight-underflow threshold of the best particle's log-likelihood.
-    radius_model_std_m : float, optional
-        Added (in quadrature) to the reported radius standard deviation: the filter's own variance only knows the
-        sensor noise, but a creep slip that differs from the model's is indistinguishable from wear. Default
-        ``0.5 * creep_slip * r_nominal`` (0.43 mm).
+    config : AUPFConfig, optional
+        The filter's tuning (see :class:`~estimators.aupf_config.AUPFConfig` for every field and its default).
+    **options
+        Fields of :class:`~estimators.aupf_config.AUPFConfig` given by name (``n_particles=128``); they override
+        ``config``. Unknown names raise ``TypeError``, bad values :class:`AUPFConfigError`.
 
     Attributes
     ----------
+    config : AUPFConfig
+        The validated tuning.
     slip : ndarray, shape (n_particles,)
         Every particle's slip ratio.
     regime : ndarray of int8, shape (n_particles,)
@@ -143,122 +120,40 @@ class AUPFEstimator(Estimator):
     name = "aupf"
     provides = frozenset({"slip", "radius"})
 
-    def __init__(
-        self,
-        vehicle: VehicleParams | None = None,
-        *,
-        n_particles: int = 64,
-        seed: int = 0,
-        gear_ratio: float = 1.0,
-        initial_radius_std_m: float = 0.005,
-        radius_process_std_m_per_sqrt_s: float = 1e-5,
-        slip_process_std: float = 0.03,
-        macro_slip_process_std: float = 1.0,
-        slip_time_constant_s: float = 0.3,
-        creep_slip: float = 0.005,
-        adhesion: float | None = None,
-        slip_onset_rate_hz: float = 2.0,
-        spontaneous_slip_rate_hz: float = 0.01,
-        slip_recovery_rate_hz: float = 1.0,
-        max_slip: float = 0.99,
-        speed_std_mps: float = 0.02,
-        motor_speed_std_radps: float = 0.05,
-        noise_fading: float = 0.995,
-        alpha: float = 1.0,
-        beta: float = 2.0,
-        resample_ess_fraction: float = 0.5,
-        min_speed_mps: float = 0.05,
-        underflow_log_likelihood: float = -30.0,
-        radius_model_std_m: float | None = None,
-        **options: Any,
-    ) -> None:
-        super().__init__(vehicle, **options)
+    def __init__(self, vehicle: VehicleParams | None = None, config: AUPFConfig | None = None,
+                 **options: Any) -> None:
+        cfg, rest = split_options(AUPFConfig, config, options)
+        super().__init__(vehicle, **rest)
         veh = self.vehicle
-        if isinstance(n_particles, bool) or not isinstance(n_particles, (int, np.integer)) or n_particles < 2:
-            raise AUPFConfigError(f"n_particles must be an integer >= 2, got {n_particles!r}")
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-            raise AUPFConfigError(f"seed must be an integer, got {seed!r}")
-        mu_a = veh.adhesion_dry if adhesion is None else adhesion
-        positive = {
-            "gear_ratio": gear_ratio,
-            "initial_radius_std_m": initial_radius_std_m,
-            "radius_process_std_m_per_sqrt_s": radius_process_std_m_per_sqrt_s,
-            "slip_process_std": slip_process_std,
-            "macro_slip_process_std": macro_slip_process_std,
-            "slip_time_constant_s": slip_time_constant_s,
-            "creep_slip": creep_slip,
-            "adhesion": mu_a,
-            "slip_recovery_rate_hz": slip_recovery_rate_hz,
-            "max_slip": max_slip,
-            "speed_std_mps": speed_std_mps,
-            "motor_speed_std_radps": motor_speed_std_radps,
-            "alpha": alpha,
-            "resample_ess_fraction": resample_ess_fraction,
-            "min_speed_mps": min_speed_mps,
-        }
-        others = {
-            "beta": beta,
-            "noise_fading": noise_fading,
-            "underflow_log_likelihood": underflow_log_likelihood,
-            "slip_onset_rate_hz": slip_onset_rate_hz,
-            "spontaneous_slip_rate_hz": spontaneous_slip_rate_hz,
-        }
-        check_number_options(
-            {**positive, **others},
-            AUPFConfigError,
-            positive=positive,
-            non_negative=("beta", "slip_onset_rate_hz", "spontaneous_slip_rate_hz"),
-            reject_bool=True,
-        )
-        if not (0.0 < noise_fading < 1.0):
-            raise AUPFConfigError(f"noise_fading must be in (0, 1), got {noise_fading!r}")
-        if not (1e-4 <= alpha <= 1.0):
-            raise AUPFConfigError(f"alpha must be in [1e-4, 1] (paper 004), got {alpha!r}")
-        if resample_ess_fraction > 1.0:
-            raise AUPFConfigError(f"resample_ess_fraction must be <= 1, got {resample_ess_fraction!r}")
-        if max_slip >= 1.0:
-            raise AUPFConfigError(f"max_slip must be < 1, got {max_slip!r}")
-        if underflow_log_likelihood >= 0:
-            raise AUPFConfigError(f"underflow_log_likelihood must be < 0, got {underflow_log_likelihood!r}")
-
-        self.n_particles = int(n_particles)
-        self.seed = int(seed)
-        self._gear = float(gear_ratio)
+        self.config = cfg
+        self.n_particles = int(cfg.n_particles)
+        self.seed = int(cfg.seed)
+        self._gear = float(cfg.gear_ratio)
         self._r_nom = veh.drive_wheel_radius_m
         self._clamp_n = veh.clamp_force_n
-        self._sigma0 = float(initial_radius_std_m) ** 2
-        if radius_model_std_m is None:
-            radius_model_std_m = 0.5 * creep_slip * self._r_nom
-        if not isinstance(radius_model_std_m, (int, float)) or not (0.0 <= radius_model_std_m < math.inf):
-            raise AUPFConfigError(f"radius_model_std_m must be a finite number >= 0, got {radius_model_std_m!r}")
-        self._r_model_var = float(radius_model_std_m) ** 2
-        self._q_r = float(radius_process_std_m_per_sqrt_s) ** 2
-        self._q_adh = float(slip_process_std) ** 2
-        self._q_macro = float(macro_slip_process_std) ** 2
-        self._tau = float(slip_time_constant_s)
-        self._i_c = float(creep_slip)
-        self._mu_a = float(mu_a)
+        self._sigma0 = float(cfg.initial_radius_std_m) ** 2
+        self._r_model_var = cfg.radius_model_std_for(veh) ** 2
+        # slip and radius dynamics
+        self._q_r = float(cfg.radius_process_std_m_per_sqrt_s) ** 2
+        self._q_adh = float(cfg.slip_process_std) ** 2
+        self._q_macro = float(cfg.macro_slip_process_std) ** 2
+        self._tau = float(cfg.slip_time_constant_s)
+        self._i_c = float(cfg.creep_slip)
+        self._mu_a = cfg.adhesion_for(veh)
         self._u_onset = 0.8 * veh.adhesion_wet
-        self._rate_onset = float(slip_onset_rate_hz)
-        self._rate_spont = float(spontaneous_slip_rate_hz)
-        self._rate_recover = float(slip_recovery_rate_hz)
-        self._max_slip = float(max_slip)
+        self._rate_onset = float(cfg.slip_onset_rate_hz)
+        self._rate_spont = float(cfg.spontaneous_slip_rate_hz)
+        self._rate_recover = float(cfg.slip_recovery_rate_hz)
+        self._max_slip = float(cfg.max_slip)
         # both encoders' noise enter the one measurement equation; the adaptation refines the sum
-        self._r0 = float(speed_std_mps) ** 2 + (float(motor_speed_std_radps) * self._r_nom) ** 2
+        self._r0 = float(cfg.speed_std_mps) ** 2 + (float(cfg.motor_speed_std_radps) * self._r_nom) ** 2
         self._r_min = 0.05 * self._r0
-        self._b = float(noise_fading)
-        self._ess_min = float(resample_ess_fraction) * self.n_particles
-        self._v_min = float(min_speed_mps)
-        self._ll_floor = float(underflow_log_likelihood)
-        n = _N_STATE
-        lam = n * (alpha**2 - 1.0)
-        self._gamma = math.sqrt(n + lam)
-        wm = np.full(2 * n + 1, 1.0 / (2.0 * (n + lam)))
-        wc = wm.copy()
-        wm[0] = lam / (n + lam)
-        wc[0] = lam / (n + lam) + (1.0 - alpha**2 + beta)
-        self._wm = wm
-        self._wc = wc
+        self._b = float(cfg.noise_fading)
+        self._ess_min = float(cfg.resample_ess_fraction) * self.n_particles
+        self._v_min = float(cfg.min_speed_mps)
+        self._ll_floor = float(cfg.underflow_log_likelihood)
+        self._gamma, self._wm, self._wc = _unscented_weights(_N_STATE, cfg.alpha, cfg.beta)
+        self._limits = InputLimits.for_vehicle(veh)
         self._prior = Estimate(
             mass_kg=veh.empty_mass_kg + 0.5 * veh.rated_load_kg,
             slope_rad=0.0,
@@ -339,8 +234,18 @@ class AUPFEstimator(Estimator):
         gyro_radps: float = math.nan,
         accel_normal_mps2: float = math.nan,
     ) -> Estimate:
-        """Process one sample (torque, ground speed and motor speed are used); NaN = missing (predict only)."""
+        """Process one sample (torque, ground speed and motor speed are used); NaN = missing (predict only).
+
+        A value beyond :class:`~estimators.input_limits.InputLimits` (``inf``, ``1e300``) counts as missing too. A
+        ``dt_s`` above :data:`~estimators.filters.MAX_STEP_S` is a data gap: the particles predict over that long.
+        Raises ``ValueError`` for a ``dt_s`` that is NaN, infinite or negative.
+        """
         check_dt_non_negative(dt_s, "aupf")
+        dt_s = min(dt_s, MAX_STEP_S)
+        lim = self._limits
+        torque_nm = plausible(torque_nm, lim.torque_nm)
+        speed_mps = plausible(speed_mps, lim.speed_mps)
+        motor_speed_radps = plausible(motor_speed_radps, lim.motor_speed_radps)
         if math.isfinite(torque_nm):
             self._last_torque = float(torque_nm)
         torque = self._last_torque
@@ -349,23 +254,38 @@ class AUPFEstimator(Estimator):
         can_update = math.isfinite(speed_mps) and math.isfinite(omega) and abs(speed_mps) >= self._v_min
         if dt_s <= 0.0:
             return self._estimate
-        n = self.n_particles
-        rng = self._rng
-        # 1. regime transitions (Markov chain; onset more likely when traction exceeds the wet-rail adhesion)
-        u = abs(torque) / (self._rho * self._clamp_n)
-        logistic_arg = np.clip((u - self._u_onset) / 0.01, -50.0, 50.0)
-        onset = self._rate_spont + self._rate_onset / (1.0 + np.exp(-logistic_arg))
-        p_switch = np.where(self._s == 1, -math.expm1(-self._rate_recover * dt_s), -np.expm1(-onset * dt_s))
-        flip = rng.random(n) < p_switch
-        self._s = np.where(flip, 1 - self._s, self._s).astype(np.int8)
-        macro = self._s == 1
+        macro = self._switch_regimes(torque, dt_s)
         a = min(dt_s / self._tau, 1.0)
         q_i = np.where(macro, self._q_macro, self._q_adh) * dt_s
         q_r = self._q_r * dt_s
         m_i = self._slip_mean(self._i, self._rho, macro, torque, a)
+        if not can_update:
+            self._predict_only(speed_mps, omega, m_i, q_i, q_r)
+        else:
+            y = float(speed_mps)
+            hat_i, hat_p = self._aukf_proposal(y, omega, macro, torque, a, q_i, q_r)
+            self._sample_and_weigh(y, omega, m_i, hat_i, hat_p, q_i, q_r)
+        self._estimate = self._summary()
+        return self._estimate
+
+    def _switch_regimes(self, torque: float, dt_s: float) -> np.ndarray:
+        """Step 1: draw every particle's regime from the Markov chain; returns the macro-slip mask.
+
+        Onset is more likely when the traction exceeds the wet-rail adhesion.
+        """
+        u = abs(torque) / (self._rho * self._clamp_n)
+        logistic_arg = np.clip((u - self._u_onset) / 0.01, -50.0, 50.0)
+        onset = self._rate_spont + self._rate_onset / (1.0 + np.exp(-logistic_arg))
+        p_switch = np.where(self._s == 1, -math.expm1(-self._rate_recover * dt_s), -np.expm1(-onset * dt_s))
+        flip = self._rng.random(self.n_particles) < p_switch
+        self._s = np.where(flip, 1 - self._s, self._s).astype(np.int8)
+        return self._s == 1
+
+    def _predict_only(self, speed_mps: float, omega: float, m_i: np.ndarray, q_i: np.ndarray, q_r: float) -> None:
+        """No usable measurement (missing, or near standstill): propagate the particles, weights unchanged."""
+        n = self.n_particles
         spinning = (
-            not can_update
-            and math.isfinite(speed_mps)
+            math.isfinite(speed_mps)
             and math.isfinite(omega)
             and abs(omega) * self._r_nom >= max(2.0 * self._v_min, 2.0 * abs(speed_mps))  # slip > ~0.5
         )
@@ -374,18 +294,19 @@ class AUPFEstimator(Estimator):
             rim = omega * self._rho
             slip = (rim - speed_mps) / np.maximum(np.abs(rim), abs(speed_mps))
             noise = math.sqrt(self._r0) / np.abs(rim)
-            self._i = np.clip(slip + noise * rng.standard_normal(n), -self._max_slip, self._max_slip)
+            self._i = np.clip(slip + noise * self._rng.standard_normal(n), -self._max_slip, self._max_slip)
             self._s = np.where(slip > 0.0, 1, self._s).astype(np.int8)
-            self._sig = self._sig + q_r
-            self._estimate = self._summary()
-            return self._estimate
-        if not can_update:
-            self._i = np.clip(m_i + np.sqrt(q_i) * rng.standard_normal(n), -self._max_slip, self._max_slip)
-            self._sig = self._sig + q_r
-            self._estimate = self._summary()
-            return self._estimate
-        y = float(speed_mps)
-        # 2. AUKF proposal per particle: prediction from ([i, rho], diag(0, Sigma)) ...
+        else:
+            self._i = np.clip(m_i + np.sqrt(q_i) * self._rng.standard_normal(n), -self._max_slip, self._max_slip)
+        self._sig = self._sig + q_r
+
+    def _aukf_proposal(self, y: float, omega: float, macro: np.ndarray, torque: float, a: float, q_i: np.ndarray,
+                       q_r: float) -> tuple[np.ndarray, np.ndarray]:
+        """Step 2: the adaptive UKF of every particle on ``[i, r]``; returns its slip marginal (mean, variance).
+
+        Prediction from ``([i, rho], diag(0, Sigma))``, unscented update with the measured ground speed (sigma
+        points redrawn), then the Sage-Husa adaptation of every particle's ``R``.
+        """
         g = self._gamma
         sd_r = np.sqrt(self._sig)
         r_sig = np.stack([self._rho, self._rho + g * sd_r, self._rho - g * sd_r], axis=1)
@@ -402,7 +323,6 @@ class AUPFEstimator(Estimator):
         c12 = (di * dr) @ w3c
         c22 = self._sig + q_r
         mr = self._rho
-        # ... and the unscented update with the measured ground speed (redrawn sigma points)
         l11 = np.sqrt(c11)
         l21 = c12 / l11
         l22 = np.sqrt(np.maximum(c22 - l21 * l21, 1e-300))
@@ -418,12 +338,15 @@ class AUPFEstimator(Estimator):
         k_i = pxy / s_y
         hat_i = mi + k_i * innov
         hat_p = np.maximum(c11 - k_i * k_i * s_y, 1e-12)
-        # adaptive measurement noise (Sage-Husa, per particle)
         self._k += 1
         d = sage_husa_weight(self._b, self._k)
         self._R = np.clip((1.0 - d) * self._R + d * (innov * innov - pyy), self._r_min, 1e4 * self._r0)
-        # 3. importance sampling of the slip; exact Kalman update of the radius given it
-        z = rng.standard_normal(n)
+        return hat_i, hat_p
+
+    def _sample_and_weigh(self, y: float, omega: float, m_i: np.ndarray, hat_i: np.ndarray, hat_p: np.ndarray,
+                          q_i: np.ndarray, q_r: float) -> None:
+        """Steps 3-4: draw the slip from the proposal, Kalman-update the radius given it, weigh, resample."""
+        z = self._rng.standard_normal(self.n_particles)
         new_i = np.clip(hat_i + np.sqrt(hat_p) * z, -self._max_slip, self._max_slip)
         h = np.where(new_i >= 0.0, omega * (1.0 - new_i), omega / (1.0 + new_i))
         sig_bar = self._sig + q_r
@@ -435,7 +358,6 @@ class AUPFEstimator(Estimator):
         e_q = new_i - hat_i
         log_trans = -0.5 * (e_t * e_t / q_i + np.log(q_i))
         log_q = -0.5 * (e_q * e_q / hat_p + np.log(hat_p))
-        # 4. weights in the log domain, underflow recovery, resampling
         if not np.all(np.isfinite(log_lik)) or float(log_lik.max()) < self._ll_floor:
             # no particle explains the sample: an outlier; learn nothing from it (predicted slip, radius prior)
             self._i = np.clip(m_i, -self._max_slip, self._max_slip)
@@ -457,8 +379,6 @@ class AUPFEstimator(Estimator):
         self._ess = 1.0 / float(w @ w)
         if self._ess < self._ess_min:
             self._resample(w)
-        self._estimate = self._summary()
-        return self._estimate
 
     def _recover_from_underflow(self) -> None:
         # no particle explains the sample: restart the weights and widen the radius beliefs, never divide by 0
@@ -512,4 +432,4 @@ class AUPFEstimator(Estimator):
         )
 
 
-__all__ = ["AUPFConfigError", "AUPFEstimator"]
+__all__ = ["AUPFConfig", "AUPFConfigError", "AUPFEstimator"]

@@ -66,6 +66,9 @@ class EstimateSeries:
         return np.degrees(self.slope_std_rad)
 
 
+_OUTPUT_FIELD = {"mass": "mass", "slope": "slope", "slip": "slip_ratio", "radius": "drive_radius_m"}
+
+
 class Estimator(ABC):
     """Base class of the online estimators.
 
@@ -84,10 +87,22 @@ class Estimator(ABC):
     provides : frozenset of str
         What the method estimates itself: a subset of ``{"mass", "slope", "mu", "slip", "radius"}``. For a quantity
         it does not estimate, it reports its prior (e.g. mid-range mass) with a large standard deviation.
+    outputs : tuple of str
+        The quantities a consumer should write or display for this estimator, in order; derived from
+        :attr:`provides` when a subclass is defined (``mu`` is a by-product, not an output). ``"mass"`` means :attr:`Estimate.mass_kg` / ``mass_std_kg``, ``"slope"`` means
+        :attr:`Estimate.slope_rad` / ``slope_std_rad``; any other name is a key of :attr:`Estimate.extras`, whose
+        standard deviation, when the method gives one, is under ``NAME + "_std"``. A quantity not listed is a prior
+        placeholder, not an estimate (e.g. the mass ``imu-ukf`` reports), and must not be presented as a result.
     """
 
     name: ClassVar[str] = "base"
     provides: ClassVar[frozenset[str]] = frozenset()
+    outputs: ClassVar[tuple[str, ...]] = ("mass", "slope")
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        # One source of truth: ``provides`` says what is estimated, ``outputs`` names where it is in an Estimate.
+        cls.outputs = tuple(field for quantity, field in _OUTPUT_FIELD.items() if quantity in cls.provides)
 
     def __init__(self, vehicle: VehicleParams | None = None, **options: Any) -> None:
         if options:

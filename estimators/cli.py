@@ -33,6 +33,7 @@ from uuom_core.trace import Trace, TraceFormatError, TraceWarning, read_trace_cs
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleFileError, VehicleParams
 
 from .base import EstimateSeries
+from .metrics import error_after_settling, settled_mask
 from .registry import UnknownEstimatorError, available, get_class
 
 __all__ = ["main", "summarize", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "output_columns"]
@@ -121,42 +122,27 @@ def _load_vehicle(path: str | None) -> VehicleParams:
         raise _CliError(f"{p}:1: cannot read vehicle file: {exc}") from None
 
 
-def _error_stats(err: np.ndarray) -> tuple[float, float]:
-    return float(np.sqrt(np.mean(err**2))), float(np.max(np.abs(err)))
-
-
 def summarize(trace: Trace, series: EstimateSeries, settle_s: float = 10.0,
               provides: frozenset[str] | set[str] = frozenset({"mass", "slope"})) -> dict[str, Any]:
     """Error summary after ``settle_s`` seconds from the start of the trace, for the truth columns present.
 
     Only quantities in ``provides`` (what the estimator estimates) are scored. Samples where the truth is missing
-    (empty cell) are left out. Returns a JSON-ready dict.
+    (empty cell) are left out (:func:`estimators.metrics.error_after_settling`). Returns a JSON-ready dict.
     """
     t = trace["t_s"]
-    after = t >= t[0] + settle_s
+    after = settled_mask(t, settle_s)
     out: dict[str, Any] = {"samples": int(len(trace)), "settle_s": float(settle_s),
                            "samples_after_settle": int(np.count_nonzero(after))}
     if "mass_kg" in trace and "mass" in provides:
-        truth = trace["mass_kg"]
-        m = after & np.isfinite(truth)
-        if np.any(m):
-            err = series.mass_kg[m] - truth[m]
-            rmse, mx = _error_stats(err)
-            rel = 100.0 * err / truth[m]
-            rmse_pct, mx_pct = _error_stats(rel)
-            out["mass"] = {"rmse_kg": rmse, "max_abs_error_kg": mx, "rmse_pct": rmse_pct,
-                           "max_abs_error_pct": mx_pct, "samples": int(np.count_nonzero(m))}
-        else:
-            out["mass"] = None
+        kg = error_after_settling(t, series.mass_kg, trace["mass_kg"], settle_s)
+        pct = error_after_settling(t, series.mass_kg, trace["mass_kg"], settle_s, relative=True)
+        out["mass"] = None if kg is None or pct is None else {
+            "rmse_kg": kg.rmse, "max_abs_error_kg": kg.max_abs, "rmse_pct": pct.rmse,
+            "max_abs_error_pct": pct.max_abs, "samples": kg.samples}
     if "slope_deg" in trace and "slope" in provides:
-        truth = trace["slope_deg"]
-        m = after & np.isfinite(truth)
-        if np.any(m):
-            err = series.slope_deg[m] - truth[m]
-            rmse, mx = _error_stats(err)
-            out["slope"] = {"rmse_deg": rmse, "max_abs_error_deg": mx, "samples": int(np.count_nonzero(m))}
-        else:
-            out["slope"] = None
+        deg = error_after_settling(t, series.slope_deg, trace["slope_deg"], settle_s)
+        out["slope"] = None if deg is None else {
+            "rmse_deg": deg.rmse, "max_abs_error_deg": deg.max_abs, "samples": deg.samples}
     return out
 
 

@@ -27,7 +27,8 @@ import numpy as np
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
-from .filters import SpikeGate, check_dt, joseph_update, repair_pd
+from .filters import (MAX_STEP_S, SpikeGate, check_dt, joseph_update, kalman_update_2x2_h1, repair_pd,
+                      repair_pd_2x2)
 
 __all__ = ["SlopeEKF", "JointEKF"]
 
@@ -135,8 +136,8 @@ class SlopeEKF:
         self.P22 = min(P22 + q22, self.P0_22)
 
     def update(self, speed_mps: float) -> float:
-        """Correct with a speed measurement (NaN: no correction). Returns the innovation (0.0 when none)."""
-        if speed_mps != speed_mps:
+        """Correct with a speed measurement (NaN or ±inf: no correction). Returns the innovation (0.0 when none)."""
+        if not (abs(speed_mps) < math.inf):  # NaN fails the comparison too; an infinite speed is no measurement
             return 0.0
         if self.v != self.v:
             self.v = speed_mps
@@ -158,30 +159,12 @@ class SlopeEKF:
         return eps
 
     def _correct(self, eps: float, S: float, R: float) -> None:
-        P11, P12, P22 = self.P11, self.P12, self.P22
-        k1 = P11 / S
-        k2 = P12 / S
-        self.v += k1 * eps
-        th = self.th + k2 * eps
+        dv, dth, n11, n12, n22 = kalman_update_2x2_h1(self.P11, self.P12, self.P22, eps, R)
+        self.v += dv
+        th = self.th + dth
         ms = self.max_slope
         self.th = ms if th > ms else (-ms if th < -ms else th)
-        # Joseph form (I-KH) P (I-KH)^T + K R K^T with H = [1, 0], on the three distinct entries
-        a = 1.0 - k1
-        n11 = a * a * P11 + k1 * k1 * R
-        n12 = a * (P12 - k2 * P11) + k1 * k2 * R
-        n22 = k2 * k2 * P11 - 2.0 * k2 * P12 + P22 + k2 * k2 * R
-        # the 2x2 repair of rls.py and specific_force.py (floor variances, |corr| < 0.999), inline on purpose:
-        # a shared helper call measured +2-5 % time per sample in these loops
-        if n11 < 1e-14:
-            n11 = 1e-14
-        if n22 < 1e-14:
-            n22 = 1e-14
-        lim = 0.999 * math.sqrt(n11 * n22)
-        if n12 > lim:
-            n12 = lim
-        elif n12 < -lim:
-            n12 = -lim
-        self.P11, self.P12, self.P22 = n11, n12, n22
+        self.P11, self.P12, self.P22 = repair_pd_2x2(n11, n12, n22, 1e-14, 1e-14)
 
     @property
     def slope_std_rad(self) -> float:
@@ -254,12 +237,14 @@ class JointEKF(Estimator):
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
         check_dt(dt_s)
+        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
+            dt_s = MAX_STEP_S
         T = self.gate_torque(torque_nm, dt_s)
         if T == T:
             self.force = T / self.r
         x = self.x
         if x[0] != x[0]:
-            if speed_mps == speed_mps:
+            if abs(speed_mps) < math.inf:
                 x[0] = speed_mps
             return self.estimate
         v, th, c = float(x[0]), float(x[1]), float(x[2])
@@ -277,7 +262,7 @@ class JointEKF(Estimator):
         Q = np.diag([self.acc_var * dt_s * dt_s, self.grade_var * dt_s if moving else 0.0,
                      self.c_var * dt_s if moving else 0.0])
         P = F @ self.P @ F.T + Q
-        if speed_mps == speed_mps:
+        if abs(speed_mps) < math.inf:
             eps = speed_mps - x[0]
             S = P[0, 0] + self.R
             if eps * eps <= self.gate2 * S or self.rejected >= 40:

@@ -24,8 +24,10 @@ __all__ = [
     "repair_pd_2x2",
     "check_dt",
     "check_dt_non_negative",
+    "MAX_STEP_S",
     "check_number_options",
-    "first_order_alpha",
+    "kalman_update_2x2_h1",
+    "effective_dt",
     "hold_last_valid",
 ]
 
@@ -43,6 +45,23 @@ def check_dt_non_negative(dt_s: float, who: str) -> float:
     if not (dt_s >= 0.0) or not math.isfinite(dt_s):
         raise ValueError(f"{who}: dt_s must be a finite number >= 0, got {dt_s!r}")
     return dt_s
+
+
+MAX_STEP_S = 1.0
+"""Longest sample interval integrated as one step; a longer one is a data gap (see :func:`effective_dt`)."""
+
+
+def effective_dt(dt_s: float) -> float:
+    """The step the filters integrate for a sample interval ``dt_s``, by the estimators' common contract.
+
+    NaN, zero or negative (a repeated or out-of-order time stamp) -> 0.0: the sample is not processed and the
+    estimate is returned unchanged. Above :data:`MAX_STEP_S` (a gap; +inf and 1e300 included) -> ``MAX_STEP_S``:
+    the filters predict over at most that long (their covariances are bounded by their priors) and restart their
+    signal filters. Never raises; no loop anywhere depends on the raw ``dt_s``.
+    """
+    if not (dt_s > 0.0):
+        return 0.0
+    return dt_s if dt_s <= MAX_STEP_S else MAX_STEP_S
 
 
 def check_number_options(
@@ -70,11 +89,6 @@ def check_number_options(
     for key in non_negative:
         if values[key] < 0:
             raise error(f"{key} must be >= 0, got {values[key]!r}")
-
-
-def first_order_alpha(cutoff_hz: float, dt_s: float) -> float:
-    """Smoothing weight of a discrete first-order low-pass (exact for a step of ``dt_s``), in (0, 1]."""
-    return 1.0 - math.exp(-2.0 * math.pi * cutoff_hz * dt_s)
 
 
 def hold_last_valid(x: np.ndarray) -> np.ndarray:
@@ -220,27 +234,49 @@ def sage_husa_weight(b: float, k: int) -> float:
     return (1.0 - b) / (1.0 - b ** (k + 1))
 
 
-def repair_pd_2x2(p11: float, p12: float, p22: float, floor: tuple[float, float] = (1e-18, 1e-18),
-                  ceil: tuple[float, float] = (math.inf, math.inf)) -> tuple[float, float, float]:
-    """Make a symmetric 2x2 matrix positive definite with its diagonal in ``[floor, ceil]``.
+def repair_pd_2x2(p11: float, p12: float, p22: float, floor11: float = 1e-18, floor22: float = 1e-18,
+                  ceil11: float = math.inf, ceil22: float = math.inf) -> tuple[float, float, float]:
+    """Make a symmetric 2x2 matrix ``(p11, p12, p22)`` positive definite with its diagonal in ``[floor, ceil]``.
 
-    Non-finite entries are replaced by the floor; the off-diagonal is shrunk so that the correlation stays below
-    0.999 (determinant > 0).
+    Non-finite diagonal entries become the floor (NaN fails every comparison), a non-finite off-diagonal 0; the
+    off-diagonal is then shrunk so that the correlation stays below 0.999 (determinant > 0). The one PD repair of
+    every 2x2 filter here (slope EKFs, RLS layers, the compiled ``dffrls-aekf`` kernel, which jit-compiles this
+    same function).
     """
-    if not (p11 == p11 and abs(p11) < math.inf):
-        p11 = floor[0]
-    if not (p22 == p22 and abs(p22) < math.inf):
-        p22 = floor[1]
-    if not (p12 == p12 and abs(p12) < math.inf):
+    if not (p11 >= floor11):
+        p11 = floor11
+    elif p11 > ceil11:
+        p11 = ceil11
+    if not (p22 >= floor22):
+        p22 = floor22
+    elif p22 > ceil22:
+        p22 = ceil22
+    if not (abs(p12) < math.inf):
         p12 = 0.0
-    p11 = min(max(p11, floor[0]), ceil[0])
-    p22 = min(max(p22, floor[1]), ceil[1])
     lim = 0.999 * math.sqrt(p11 * p22)
     if p12 > lim:
         p12 = lim
     elif p12 < -lim:
         p12 = -lim
     return p11, p12, p22
+
+
+def kalman_update_2x2_h1(p11: float, p12: float, p22: float, innov: float,
+                         r: float) -> tuple[float, float, float, float, float]:
+    """Kalman correction of a 2-state filter measuring its first state (``H = [1, 0]``), Joseph form.
+
+    Returns ``(dx1, dx2, p11, p12, p22)``: the state correction ``K innov`` and the updated covariance
+    ``(I - K H) P (I - K H)^T + K r K^T`` written on the three distinct entries (symmetric by construction, PSD
+    for any gain). Pair it with :func:`repair_pd_2x2`.
+    """
+    s = p11 + r
+    k1 = p11 / s
+    k2 = p12 / s
+    a = 1.0 - k1
+    n11 = a * a * p11 + k1 * k1 * r
+    n12 = a * (p12 - k2 * p11) + k1 * k2 * r
+    n22 = k2 * k2 * p11 - 2.0 * k2 * p12 + p22 + k2 * k2 * r
+    return k1 * innov, k2 * innov, n11, n12, n22
 
 
 def joseph_update(P: np.ndarray, K: np.ndarray, H: np.ndarray, R: np.ndarray) -> np.ndarray:

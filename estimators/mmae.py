@@ -40,7 +40,14 @@ spread-of-means term.
 Two gates keep the probabilities from learning from data that carry no payload information or break the model:
 the probabilities are frozen when the drive force ``T/r`` is below ``min_traction_n`` (coasting or braking: the
 brake cars act with a force that is not measured) or the train is at standstill, and when even the best model's
-normalised innovation squared exceeds ``gate_nis`` (spikes, faults). The filters' states are still updated.
+normalised innovation squared exceeds ``gate_nis`` (spikes, faults). A measurement that fails that gate in
+every model is an outlier and updates no state either, unless it has done so for 40 samples in a row (then it is
+a real step and is followed); ``n_outliers`` counts them.
+
+Bad input: NaN and physically impossible values (:class:`~estimators.input_limits.InputLimits`: ``inf``,
+``1e300``) are missing samples; a ``dt`` above :data:`~estimators.filters.MAX_STEP_S` is a gap predicted over that
+long; a model whose state stops being finite is restarted. The tuning is :class:`~estimators.mmae_config.MMAEConfig`;
+the per-model arithmetic is one compiled loop in :mod:`estimators.mmae_kernel`.
 """
 
 from __future__ import annotations
@@ -53,15 +60,15 @@ import numpy as np
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
-from .filters import check_dt_non_negative, check_number_options
+from .config import split_options
+from .filters import MAX_STEP_S, check_dt_non_negative
+from .input_limits import InputLimits, plausible
+from . import mmae_kernel as _kernel
+from .mmae_config import MMAEConfig, MMAEConfigError
 
-_LOG_2PI = math.log(2.0 * math.pi)
 _REPAIR_EVERY = 50
+_RELOCK_AFTER = 40  # consecutive outliers of one measurement after which it is believed again (a real step)
 _SLOPE_TAU_S = 1.0  # low-pass of the model-free slope that feeds the rear-section slope history
-
-
-class MMAEConfigError(ValueError):
-    """An MMAE option that cannot work (names the option and the value)."""
 
 
 class MMAEEstimator(Estimator):
@@ -71,57 +78,21 @@ class MMAEEstimator(Estimator):
     ----------
     vehicle : VehicleParams, optional
         Empty mass, rated load, drive radius, rotating mass and nominal running resistance come from here.
-    n_models : int, default 30
-        Number of payload hypotheses (the patent uses 30; 50 were run in real time).
-    payload_min_kg, payload_max_kg : float, optional
-        Range of the hypotheses; default 0 to the vehicle's rated load.
-    running_resistance : float, optional
-        Running-resistance coefficient of the model; default the vehicle's nominal value.
-    speed_std_mps : float, default 0.02
-        Standard deviation of the ground-speed measurement.
-    accel_std_mps2 : float, default 0.3
-        Standard deviation of the specific-force measurement, including the vibration of the swinging load.
-    accel_process_std_mps2 : float, default 0.15
-        Intensity (m/s^2 per sqrt(Hz)) of the unmodelled longitudinal force per unit mass (couplers, sway).
-    curvature_change_std : float, default 6e-3
-        Random-walk intensity of the slope curvature ``kappa = d theta / ds`` per sqrt(metre) travelled (rad/m per
-        sqrt(m)); loose enough to follow the road test's 0-to-11 deg vertical curve of 8 m (0.024 rad/m).
-    initial_curvature_std_rad_per_m : float, default 1e-3
-        Prior standard deviation of the slope curvature (prior mean 0).
-    slope_process_floor_radps : float, default 1e-4
-        Slope random-walk intensity (in time) on top of the curvature model.
-    front_mass_fraction : float, default 0.55
-        Share of the empty mass on the front (drive) section, at the accelerometer.
-    rear_offset_m : float, default 9.0
-        Distance from the accelerometer back to the rear section and the payload's suspension (the project plant:
-        IMU on the drive section, lifting beams 9 m behind). Without it a 30 m vertical curve biased the payload
-        by 20-40 % (measured on the plant). 0 = a point mass (whole train on one slope).
-    history_step_m : float, default 0.25
-        Distance resolution of the remembered slope profile.
-    initial_slope_std_rad : float, default 0.15
-        Prior standard deviation of the slope (prior mean 0).
-    initial_speed_std_mps : float, default 0.5
-        Prior standard deviation of the speed (prior mean: the first valid speed sample).
-    prob_floor : float, default 1e-6
-        Lower bound of every model probability.
-    min_traction_n : float, default 2000.0
-        Model probabilities are only updated while the drive force ``T/r`` exceeds this.
-    standstill_speed_mps : float, default 0.03
-        Below this measured speed the train is taken as held at rest (a = 0, probabilities frozen).
-    smooth_speed_mps : float, default 0.01
-        ``v_s`` of the smooth sign ``tanh(v / v_s)`` of the running resistance. Small: the plant's resistance is
-        Coulomb friction, and with 0.05 m/s the model under-counted it while the train crawled into a station and
-        over-estimated the payload by up to 12 % (measured).
-    gate_nis : float, default 36.0
-        Freeze the probabilities on a sample whose best-model normalised innovation squared exceeds this.
+    config : MMAEConfig, optional
+        The bank's tuning (see :class:`~estimators.mmae_config.MMAEConfig` for every field and its default).
+    **options
+        Fields of :class:`~estimators.mmae_config.MMAEConfig` given by name (``n_models=50``); they override
+        ``config``. Unknown names raise ``TypeError``, bad values :class:`MMAEConfigError`.
 
     Attributes
     ----------
+    config : MMAEConfig
+        The validated tuning.
     payloads_kg : ndarray, shape (n_models,)
         The hypothesised payloads.
-    x : ndarray, shape (n_models, 2)
-        Per-model state ``[v_mps, slope_rad]``.
-    P : ndarray, shape (n_models, 2, 2)
+    x : ndarray, shape (n_models, 3)
+        Per-model state ``[v_mps, slope_rad, curvature_rad_per_m]``.
+    P : ndarray, shape (n_models, 3, 3)
         Per-model state covariance.
     probabilities : ndarray, shape (n_models,)
         Current model probabilities (sum to 1).
@@ -130,110 +101,51 @@ class MMAEEstimator(Estimator):
     name = "mmae"
     provides = frozenset({"mass", "slope"})
 
-    def __init__(
-        self,
-        vehicle: VehicleParams | None = None,
-        *,
-        n_models: int = 30,
-        payload_min_kg: float = 0.0,
-        payload_max_kg: float | None = None,
-        running_resistance: float | None = None,
-        speed_std_mps: float = 0.02,
-        accel_std_mps2: float = 0.3,
-        accel_process_std_mps2: float = 0.15,
-        curvature_change_std: float = 6e-3,
-        initial_curvature_std_rad_per_m: float = 1e-3,
-        front_mass_fraction: float = 0.55,
-        rear_offset_m: float = 9.0,
-        history_step_m: float = 0.25,
-        slope_process_floor_radps: float = 1e-4,
-        initial_slope_std_rad: float = 0.15,
-        initial_speed_std_mps: float = 0.5,
-        prob_floor: float = 1e-6,
-        min_traction_n: float = 2000.0,
-        standstill_speed_mps: float = 0.03,
-        smooth_speed_mps: float = 0.01,
-        gate_nis: float = 36.0,
-        **options: Any,
-    ) -> None:
-        super().__init__(vehicle, **options)
+    def __init__(self, vehicle: VehicleParams | None = None, config: MMAEConfig | None = None,
+                 **options: Any) -> None:
+        cfg, rest = split_options(MMAEConfig, config, options)
+        super().__init__(vehicle, **rest)
         veh = self.vehicle
-        if isinstance(n_models, bool) or not isinstance(n_models, (int, np.integer)) or n_models < 2:
-            raise MMAEConfigError(f"n_models must be an integer >= 2, got {n_models!r}")
-        if payload_max_kg is None:
-            payload_max_kg = veh.rated_load_kg if veh.rated_load_kg > payload_min_kg else payload_min_kg + 1.0
-        positive = {
-            "speed_std_mps": speed_std_mps,
-            "accel_std_mps2": accel_std_mps2,
-            "accel_process_std_mps2": accel_process_std_mps2,
-            "slope_process_floor_radps": slope_process_floor_radps,
-            "initial_slope_std_rad": initial_slope_std_rad,
-            "initial_curvature_std_rad_per_m": initial_curvature_std_rad_per_m,
-            "initial_speed_std_mps": initial_speed_std_mps,
-            "smooth_speed_mps": smooth_speed_mps,
-            "history_step_m": history_step_m,
-            "gate_nis": gate_nis,
-        }
-        non_negative = {
-            "payload_min_kg": payload_min_kg,
-            "curvature_change_std": curvature_change_std,
-            "rear_offset_m": rear_offset_m,
-            "front_mass_fraction": front_mass_fraction,
-            "min_traction_n": min_traction_n,
-            "standstill_speed_mps": standstill_speed_mps,
-        }
-        check_number_options(
-            {**positive, **non_negative, "payload_max_kg": payload_max_kg},
-            MMAEConfigError,
-            positive=positive,
-            non_negative=non_negative,
-        )
-        if payload_max_kg <= payload_min_kg:
-            raise MMAEConfigError(
-                f"payload_max_kg ({payload_max_kg!r}) must exceed payload_min_kg ({payload_min_kg!r})"
-            )
-        if not (0.0 < prob_floor < 1.0 / n_models):
-            raise MMAEConfigError(f"prob_floor must be in (0, 1/n_models), got {prob_floor!r}")
-        mu = veh.running_resistance if running_resistance is None else running_resistance
-        if not isinstance(mu, (int, float)) or not (0.0 <= mu < 1.0):
-            raise MMAEConfigError(f"running_resistance must be in [0, 1), got {mu!r}")
-
-        self.n_models = int(n_models)
-        self.payloads_kg = np.linspace(float(payload_min_kg), float(payload_max_kg), self.n_models)
+        self.config = cfg
+        self.n_models = int(cfg.n_models)
+        self.payloads_kg = cfg.payloads_kg(veh)
+        self._mu = cfg.running_resistance_for(veh)
+        # per-model mass terms, divided by the effective (translating + rotating) mass once here
         self._mass = veh.empty_mass_kg + self.payloads_kg
         self._m_rot = veh.rotating_mass_kg
         self._inv_meff = 1.0 / (self._mass + self._m_rot)
-        self._mass_ratio = self._mass * self._inv_meff  # M_j / (M_j + m_rot)
-        self._rot_ratio = self._m_rot * self._inv_meff  # m_rot / (M_j + m_rot)
         self._radius = veh.drive_wheel_radius_m
-        self._mu = float(mu)
-        self._r_v = float(speed_std_mps) ** 2
-        self._r_f = float(accel_std_mps2) ** 2
-        self._q_v = float(accel_process_std_mps2) ** 2
-        self._q_kappa_per_m = float(curvature_change_std) ** 2
-        self._p0_kappa = float(initial_curvature_std_rad_per_m) ** 2
-        if front_mass_fraction > 1.0:
-            raise MMAEConfigError(f"front_mass_fraction must be in [0, 1], got {front_mass_fraction!r}")
-        self._rear_offset = float(rear_offset_m)
-        self._hist_step = float(history_step_m)
-        self._hist_len = int(math.ceil(self._rear_offset / self._hist_step)) + 16
-        m_front = float(front_mass_fraction) * veh.empty_mass_kg
-        if self._rear_offset == 0.0:  # point mass: every part on the accelerometer's slope
+        m_front = float(cfg.front_mass_fraction) * veh.empty_mass_kg
+        if cfg.rear_offset_m == 0.0:  # point mass: every part on the accelerometer's slope
             m_front = self._mass.copy()
         m_rear = self._mass - m_front
-        self._q_th_floor = float(slope_process_floor_radps) ** 2
-        self._p0_th = float(initial_slope_std_rad) ** 2
-        self._p0_v = float(initial_speed_std_mps) ** 2
-        self._floor = float(prob_floor)
-        self._eye = np.broadcast_to(np.eye(3), (self.n_models, 3, 3)).copy()
         self._gf = G_MPS2 * m_front * self._inv_meff
         self._gf_mu = self._gf * self._mu
         self._gr = G_MPS2 * m_rear * self._inv_meff
         self._gr_mu = self._gr * self._mu
-        self._min_traction_n = float(min_traction_n)
-        self._standstill = float(standstill_speed_mps)
-        self._v_s = float(smooth_speed_mps)
-        self._gate_nis = float(gate_nis)
+        # noise variances and priors
+        self._r_v = float(cfg.speed_std_mps) ** 2
+        self._r_f = float(cfg.accel_std_mps2) ** 2
+        self._q_v = float(cfg.accel_process_std_mps2) ** 2
+        self._q_kappa_per_m = float(cfg.curvature_change_std) ** 2
+        self._q_th_floor = float(cfg.slope_process_floor_radps) ** 2
+        self._p0_kappa = float(cfg.initial_curvature_std_rad_per_m) ** 2
+        self._p0_th = float(cfg.initial_slope_std_rad) ** 2
+        self._p0_v = float(cfg.initial_speed_std_mps) ** 2
+        # rear-slope history along the distance travelled
+        self._rear_offset = float(cfg.rear_offset_m)
+        self._hist_step = float(cfg.history_step_m)
+        self._hist_len = int(math.ceil(self._rear_offset / self._hist_step)) + 16
+        # gates and the probability floor
+        self._floor = float(cfg.prob_floor)
+        self._min_traction_n = float(cfg.min_traction_n)
+        self._standstill = float(cfg.standstill_speed_mps)
+        self._v_s = float(cfg.smooth_speed_mps)
+        self._gate_nis = float(cfg.gate_nis)
+        self._limits = InputLimits.for_vehicle(veh)
+        self._consts = _kernel.pack_constants(self._inv_meff, self._gf, self._gf_mu, self._gr, self._gr_mu,
+                                              self.payloads_kg)
+        self._moments = np.empty(6)
         # half-spacing quantisation of the payload grid: the mixture cannot resolve finer than this
         spacing = self.payloads_kg[1] - self.payloads_kg[0]
         self._grid_var = spacing**2 / 12.0
@@ -258,6 +170,9 @@ class MMAEEstimator(Estimator):
         self._slope_lp = 0.0
         self._initialised = False
         self._last_torque = 0.0
+        self._n_rejected_v = 0
+        self._n_rejected_f = 0
+        self.n_outliers = 0
         self._estimate = self._mixture()
 
     @property
@@ -307,72 +222,20 @@ class MMAEEstimator(Estimator):
         if self._hist_first > b:  # first sample
             self._hist_first = self._hist_last = b
             self._hist[b % self._hist_len] = slope_rad
+        if b - self._hist_last > self._hist_len:  # moved on farther than the history holds: one slope for it all
+            self._hist[:] = slope_rad
+            self._hist_last = b
         while self._hist_last < b:  # moving forward: fill every bin passed since the last sample
             self._hist_last += 1
             self._hist[self._hist_last % self._hist_len] = slope_rad
 
-    def _gravity(self, th: np.ndarray, tanh_v: np.ndarray, th_rear: float) -> tuple[np.ndarray, np.ndarray]:
-        """Gravity + running resistance per unit effective mass of every model, and its derivative in theta."""
-        sin_f, cos_f = np.sin(th), np.cos(th)
-        grav = self._gf * sin_f + self._gf_mu * cos_f * tanh_v
-        d_th = self._gf * cos_f - self._gf_mu * sin_f * tanh_v
-        if math.isnan(th_rear):
-            return grav, d_th
-        return grav + self._gr * math.sin(th_rear) + self._gr_mu * math.cos(th_rear) * tanh_v, d_th
-
     def _predict(self, torque_nm: float, dt: float, held: bool, speed_abs: float) -> None:
-        x = self._x
-        v, th, kappa = x[:, 0], x[:, 1], x[:, 2]
-        phi = self._eye.copy()
-        if not held:
-            h = dt
-            th_rear = self._rear_slope()
-            sin_f, cos_f = np.sin(th), np.cos(th)
-            drive = (torque_nm / self._radius) * self._inv_meff - self._gf * sin_f
-            res = self._gf_mu * cos_f
-            if not math.isnan(th_rear):
-                drive = drive - self._gr * math.sin(th_rear)
-                res = res + self._gr_mu * math.cos(th_rear)
-            inv_vs = 1.0 / self._v_s
-            # fixed-step RK4 of the speed equation (v-dependent through the smooth resistance); over one 5 ms step
-            # the slope is held, then advanced by kappa times the distance travelled (exact for linear v)
-            k1 = drive - res * np.tanh(v * inv_vs)
-            k2 = drive - res * np.tanh((v + 0.5 * h * k1) * inv_vs)
-            k3 = drive - res * np.tanh((v + 0.5 * h * k2) * inv_vs)
-            k4 = drive - res * np.tanh((v + h * k3) * inv_vs)
-            v_new = v + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-            # first-order transition matrix of the linearised model at the prior
-            tanh_v = np.tanh(v * inv_vs)
-            phi[:, 0, 0] += h * (-res * (1.0 - tanh_v * tanh_v) * inv_vs)
-            phi[:, 0, 1] = -h * (self._gf * cos_f - self._gf_mu * sin_f * tanh_v)
-            phi[:, 1, 0] = h * kappa
-            phi[:, 1, 2] = h * v
-            x[:, 1] = th + kappa * (0.5 * h) * (v + v_new)
-            x[:, 0] = v_new
-        # else: held at rest (parking brake / static friction): no motion, only the process noise
-        P = np.matmul(np.matmul(phi, self._P), np.swapaxes(phi, 1, 2))
-        P[:, 0, 0] += self._q_v * dt
-        P[:, 1, 1] += self._q_th_floor * dt
-        P[:, 2, 2] += self._q_kappa_per_m * speed_abs * dt
-        self._P = P
-
-    def _scalar_update(self, resid: np.ndarray, h: np.ndarray | None, r: float) -> tuple[np.ndarray, np.ndarray]:
-        """Scalar EKF update of every model with measurement row ``h`` (n, 3; None = the speed row [1, 0, 0]).
-
-        Returns the log-likelihood and the normalised innovation squared of every model.
-        """
-        P = self._P
-        if h is None:  # the speed row [1, 0, 0]
-            g = P[:, :, 0].copy()
-            s = g[:, 0] + r
-        else:
-            g = np.matmul(P, h[:, :, None])[:, :, 0]
-            s = (h * g).sum(axis=1) + r
-        k = g / s[:, None]
-        self._x += k * resid[:, None]
-        self._P = P - k[:, :, None] * g[:, None, :]
-        nis = resid * resid / s
-        return -0.5 * (nis + np.log(s) + _LOG_2PI), nis
+        # fixed-step RK4 of the speed equation (v-dependent through the smooth resistance); over one step the slope
+        # is held, then advanced by kappa times the distance travelled (exact for linear v). Held at rest (parking
+        # brake / static friction): no motion, only the process noise.
+        th_rear = math.nan if held else self._rear_slope()
+        _kernel.predict(self._x, self._P, self._consts, torque_nm, dt, held, speed_abs, th_rear, self._radius,
+                        1.0 / self._v_s, self._q_v, self._q_th_floor, self._q_kappa_per_m)
 
     def _condition(self) -> None:
         # Both the prediction (Phi P Phi^T + Q) and the update (P - g g^T / s) are symmetric by construction;
@@ -382,6 +245,7 @@ class MMAEEstimator(Estimator):
         if self._n_since_repair < _REPAIR_EVERY:
             return
         self._n_since_repair = 0
+        self._heal()
         P = 0.5 * (self._P + np.swapaxes(self._P, 1, 2))
         d = np.einsum("nii->ni", P)
         np.maximum(d, 1e-14, out=d)
@@ -391,6 +255,33 @@ class MMAEEstimator(Estimator):
             P[:, a, b] = c
             P[:, b, a] = c
         self._P = P
+
+    def _heal(self) -> bool:
+        """Restart every model whose state or covariance is no longer finite; True if one was.
+
+        Inputs are gated (:class:`~estimators.input_limits.InputLimits`), so this is a last line of defence: a
+        restarted model takes the prior slope and curvature around the bank's finite speed, and its probability
+        is kept (a NaN log-probability restarts all of them uniform).
+        """
+        bad = ~(np.isfinite(self._x).all(axis=1) & np.isfinite(self._P).all(axis=(1, 2)))
+        lp_bad = not np.isfinite(self._log_prob).all()
+        if not bad.any() and not lp_bad:
+            return False
+        good_v = self._x[~bad, 0]
+        self._x[bad] = 0.0
+        self._x[bad, 0] = float(good_v.mean()) if good_v.size else 0.0
+        self._P[bad] = np.diag([self._p0_v, self._p0_th, self._p0_kappa])
+        if lp_bad:
+            self._log_prob = np.full(self.n_models, -math.log(self.n_models))
+        return True
+
+    def _finish(self) -> Estimate:
+        e = self._mixture()
+        if not all(map(math.isfinite, (e.mass_kg, e.slope_rad, e.mass_std_kg, e.slope_std_rad))):
+            self._heal()
+            e = self._mixture()
+        self._estimate = e
+        return e
 
     def update(
         self,
@@ -402,8 +293,18 @@ class MMAEEstimator(Estimator):
         gyro_radps: float = math.nan,
         accel_normal_mps2: float = math.nan,
     ) -> Estimate:
-        """Process one sample; NaN inputs are treated as missing (``accel_mps2`` is the specific force)."""
+        """Process one sample; NaN inputs are treated as missing (``accel_mps2`` is the specific force).
+
+        A value beyond :class:`~estimators.input_limits.InputLimits` (``inf``, ``1e300``) counts as missing too. A
+        ``dt_s`` above :data:`~estimators.filters.MAX_STEP_S` is a data gap: the bank predicts over that long.
+        Raises ``ValueError`` for a ``dt_s`` that is NaN, infinite or negative.
+        """
         check_dt_non_negative(dt_s, "mmae")
+        dt_s = min(dt_s, MAX_STEP_S)
+        lim = self._limits
+        torque_nm = plausible(torque_nm, lim.torque_nm)
+        speed_mps = plausible(speed_mps, lim.speed_mps)
+        accel_mps2 = plausible(accel_mps2, lim.accel_mps2)
         have_v = math.isfinite(speed_mps)
         have_f = math.isfinite(accel_mps2)
         have_t = math.isfinite(torque_nm)
@@ -417,69 +318,55 @@ class MMAEEstimator(Estimator):
         held = have_v and abs(speed_mps) < self._standstill and abs(self._last_torque) / self._radius < (
             self._min_traction_n
         )
+        saved = (self._s_m, self._v_lp, self._f_lp, self._slope_lp, self._hist_first, self._hist_last)
         if dt_s > 0.0:
             speed = speed_mps if have_v else float(np.exp(self._log_prob) @ self._x[:, 0])
             self._s_m += speed * dt_s  # odometry for the slope history
             self._predict(self._last_torque, dt_s, held, abs(speed))
+        # with the torque missing the measurement model is unknown: predict only, and keep a sample the bank cannot
+        # check out of the model-free slope history (an outlier there would bias the rear slope 9 m later)
+        if not have_t:
+            if have_v and dt_s > 0.0:
+                nis_v = (speed_mps - self._x[:, 0]) ** 2 / (self._P[:, 0, 0] + self._r_v)
+                if float(nis_v.min()) > self._gate_nis:  # a speed outlier: odometry from the bank instead
+                    self._s_m = saved[0] + float(np.exp(self._log_prob) @ self._x[:, 0]) * dt_s
+            self._condition()
+            return self._finish()
         if have_v and have_f and self._rear_offset > 0.0 and dt_s > 0.0:
             self._measure_slope(speed_mps, accel_mps2, dt_s)
         th_rear = self._rear_slope()
-        # with the torque missing the measurement model is unknown: predict only
-        if not have_t:
-            self._condition()
-            self._estimate = self._mixture()
-            return self._estimate
-        n = self.n_models
-        loglik = np.zeros(n)
-        nis = np.zeros(n)
-        if have_v:
-            ll, n1 = self._scalar_update(speed_mps - self._x[:, 0], None, self._r_v)
-            loglik += ll
-            nis += n1
-        if have_f:
-            v, th = self._x[:, 0], self._x[:, 1]
-            tanh_v = np.tanh(v / self._v_s)
-            grav, d_th = self._gravity(th, tanh_v, th_rear)
-            f_pred = (torque_nm / self._radius) * self._inv_meff - grav + G_MPS2 * np.sin(th)
-            res = self._gf_mu * np.cos(th)
-            if not math.isnan(th_rear):
-                res = res + self._gr_mu * math.cos(th_rear)
-            h = np.zeros((n, 3))
-            h[:, 0] = -res * (1.0 - tanh_v * tanh_v) / self._v_s
-            h[:, 1] = G_MPS2 * np.cos(th) - d_th
-            ll, n2 = self._scalar_update(accel_mps2 - f_pred, h, self._r_f)
-            loglik += ll
-            nis += n2
-        self._condition()
         informative = (
             have_v and have_f and not held and abs(torque_nm) / self._radius >= self._min_traction_n
         )
-        if informative and float(nis.min()) <= self._gate_nis:
-            lp = self._log_prob + loglik
-            p = np.exp(lp - lp.max())
-            p /= p.sum()
-            np.maximum(p, self._floor, out=p)
-            self._log_prob = np.log(p / p.sum())
-        self._estimate = self._mixture()
-        return self._estimate
+        rejected = _kernel.correct(
+            self._x, self._P, self._log_prob, self._consts, torque_nm, speed_mps, accel_mps2, have_v, have_f,
+            th_rear, self._radius, self._v_s, self._r_v, self._r_f, informative, self._gate_nis, self._floor,
+            self._n_rejected_v >= _RELOCK_AFTER, self._n_rejected_f >= _RELOCK_AFTER,
+        )
+        self._n_rejected_v = self._n_rejected_v + 1 if rejected & 1 else 0
+        self._n_rejected_f = self._n_rejected_f + 1 if rejected & 2 else 0
+        self.n_outliers += rejected.bit_count()
+        if rejected:
+            # an outlier must not enter the model-free slope history nor the odometry either: take them back
+            # (bins written meanwhile lie beyond the restored end and are never read before being rewritten)
+            s_prev = saved[0]
+            self._s_m, self._v_lp, self._f_lp, self._slope_lp, self._hist_first, self._hist_last = saved
+            if dt_s > 0.0:
+                self._s_m = s_prev + float(np.exp(self._log_prob) @ self._x[:, 0]) * dt_s
+        self._condition()
+        return self._finish()
 
     def _mixture(self) -> Estimate:
-        prob = np.exp(self._log_prob)
-        payload = float(prob @ self.payloads_kg)
-        dp = self.payloads_kg - payload
-        payload_var = float(prob @ (dp * dp)) + self._grid_var
+        out = self._moments
+        _kernel.mixture(self._x, self._P, self._log_prob, self._consts, out)
+        payload, payload_var, slope, slope_var, speed, p_max = out.tolist()
         # the slope at the accelerometer = the train's reference point (the plant's truth convention)
-        th = self._x[:, 1]
-        slope = float(prob @ th)
-        dth = th - slope
-        slope_var = float(prob @ (self._P[:, 1, 1] + dth * dth))
-        speed = float(prob @ self._x[:, 0])
         return Estimate(
             mass_kg=self.vehicle.empty_mass_kg + payload,
             slope_rad=slope,
-            mass_std_kg=math.sqrt(payload_var),
+            mass_std_kg=math.sqrt(payload_var + self._grid_var),
             slope_std_rad=math.sqrt(max(slope_var, 0.0)),
-            extras={"speed_mps": speed, "model_prob_max": float(prob.max())},
+            extras={"speed_mps": speed, "model_prob_max": p_max},
         )
 
     def mixture_covariance(self) -> np.ndarray:
@@ -492,4 +379,4 @@ class MMAEEstimator(Estimator):
         return np.einsum("j,jab->ab", prob, self.P) + np.einsum("j,ja,jb->ab", prob, d, d)
 
 
-__all__ = ["MMAEConfigError", "MMAEEstimator"]
+__all__ = ["MMAEConfig", "MMAEConfigError", "MMAEEstimator"]

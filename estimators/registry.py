@@ -20,7 +20,10 @@ _REGISTRY: dict[str, str] = {
     "dffrls": "estimators.rls:DFFRLSMassEstimator",
     "ekf": "estimators.ekf:JointEKF",
     "rls-ekf": "estimators.two_layer:RLSEKF",
-    "dffrls-aekf": "estimators.two_layer:DFFRLSAEKF",
+    "dffrls-aekf": "estimators.dffrls_aekf:DFFRLSAEKF",  # the project's variant, env default
+    "dffrls-aekf-paper": "estimators.dffrls_aekf_paper:DFFRLSAEKFPaper",
+    # issue 10: mass, gravity slope and resistance offset from all on-board signals, learned gravity blend
+    "fused": "estimators.fused:FusedObserver",
     # improvement on paper 000: uses the accelerometer's specific force (issue 3)
     "sf-kf": "estimators.specific_force:SpecificForceKF",
     # other source methods, spec §5.6-5.8

@@ -49,8 +49,8 @@ from typing import Any, ClassVar
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
-from .filters import LowPass2, SpikeGate, check_dt
-from .rls import RegressionFrontEnd
+from .filters import MAX_STEP_S, LowPass2, SpikeGate, check_dt, kalman_update_2x2_h1, repair_pd_2x2
+from .regression_front_end import RegressionFrontEnd
 
 __all__ = ["SpecificForceKF"]
 
@@ -187,6 +187,8 @@ class SpecificForceKF(Estimator):
                accel_normal_mps2: float = math.nan) -> Estimate:
         if not (dt_s > 0.0 and dt_s < math.inf):
             check_dt(dt_s)
+        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
+            dt_s = MAX_STEP_S
         f = self.gate_f(accel_mps2, dt_s)
         z = self.gate_v(speed_mps, dt_s)
         self._slope_step(f, z, dt_s)
@@ -265,31 +267,12 @@ class SpecificForceKF(Estimator):
                     self.v = z
                     eps = 0.0
                 self.rejected = 0
-                R = self.R_v
-                # the speed correction of ekf.SlopeEKF._correct, inline for the same reason as the repair below
-                k1 = P11 / S
-                k2 = P12 / S
-                self.v += k1 * eps
-                th = self.th + k2 * eps
+                dv, dth, P11, P12, P22 = kalman_update_2x2_h1(P11, P12, P22, eps, self.R_v)
+                self.v += dv
+                th = self.th + dth
                 ms = self.max_slope
                 self.th = ms if th > ms else (-ms if th < -ms else th)
-                a = 1.0 - k1
-                n11 = a * a * P11 + k1 * k1 * R
-                n12 = a * (P12 - k2 * P11) + k1 * k2 * R
-                n22 = k2 * k2 * P11 - 2.0 * k2 * P12 + P22 + k2 * k2 * R
-                P11, P12, P22 = n11, n12, n22
-        # the 2x2 repair of ekf.py and rls.py (floor variances, |corr| < 0.999), inline on purpose:
-        # a shared helper call measured +2-5 % time per sample in these loops
-        if P11 < 1e-14:
-            P11 = 1e-14
-        if P22 < 1e-14:
-            P22 = 1e-14
-        lim = 0.999 * math.sqrt(P11 * P22)
-        if P12 > lim:
-            P12 = lim
-        elif P12 < -lim:
-            P12 = -lim
-        self.P11, self.P12, self.P22 = P11, P12, P22
+        self.P11, self.P12, self.P22 = repair_pd_2x2(P11, P12, P22, 1e-14, 1e-14)
 
     # mass layer ----------------------------------------------------------------------------------------------
     def _mass_step(self, sin_lp: float, cos_lp: float) -> None:
@@ -314,18 +297,7 @@ class SpecificForceKF(Estimator):
         Pc -= k1 * Ph1
         Pcd -= k1 * Ph2
         Pd -= k2 * Ph2
-        # the 2x2 repair of the slope layer above (floor variances, |corr| < 0.999), inline on purpose:
-        # a shared helper call measured +2-5 % time per sample in these loops
-        if Pc < 1e-14:
-            Pc = 1e-14
-        if Pd < 1e-16:
-            Pd = 1e-16
-        lim = 0.999 * math.sqrt(Pc * Pd)
-        if Pcd > lim:
-            Pcd = lim
-        elif Pcd < -lim:
-            Pcd = -lim
-        self.Pc, self.Pcd, self.Pd = Pc, Pcd, Pd
+        self.Pc, self.Pcd, self.Pd = repair_pd_2x2(Pc, Pcd, Pd, 1e-14, 1e-16)
         self.c = min(max(c, self.c_min), self.c_max)
         # μ stays physical: 0 <= μ <= 0.2
         self.d = min(max(d, 0.0), 0.2 * self.c)

@@ -1,19 +1,19 @@
-"""The two-layer estimators of paper 000 §3.3 (Fig. 4): a recursive-least-squares layer for the mass feeding
-an extended Kalman filter for the slope.
+"""The paper-000 baseline two-layer estimator (§3.3, Fig. 4 with the baselines' layers): a recursive-least-squares
+layer for the mass feeding an extended Kalman filter for the slope.
 
-- ``dffrls-aekf`` (:class:`DFFRLSAEKF`): DFFRLS mass (:class:`~estimators.rls.DFFRLSMassEstimator`) → Sage-Husa
-  AEKF slope (:class:`~estimators.aekf.SageHusaAEKF`). The paper's method and the environment's default
-  observation layer.
 - ``rls-ekf`` (:class:`RLSEKF`): RLS (λ = 1) mass → fixed-noise EKF slope (paper baseline).
 
-Both report the mass of the RLS layer and the slope of the EKF layer, with their 1-sigma standard deviations.
-Accelerometer: like the paper, neither uses the accelerometer column; the RLS layer uses the low-passed derivative
+The paper's own two-layer method is ``dffrls-aekf-paper`` (:mod:`estimators.dffrls_aekf_paper`, as printed) and
+``dffrls-aekf`` (:mod:`estimators.dffrls_aekf`, the project's variant). ``rls-ekf`` reports the mass of the RLS
+layer and the slope of the EKF layer, with their 1-sigma standard deviations.
+
+Accelerometer: like the paper, it does not use the accelerometer column; the RLS layer uses the low-passed derivative
 of the measured ground speed as the acceleration ``dv/dt`` and the EKF layer measures speed only (see
 :mod:`estimators.rls` and :mod:`estimators.ekf`). The estimator that does use the accelerometer (specific force)
 is ``sf-kf`` (:mod:`estimators.specific_force`).
 
 Options are routed by prefix: ``mass_<option>`` goes to the RLS layer, ``slope_<option>`` to the EKF layer
-(e.g. ``make("dffrls-aekf", mass_delta=0.97, slope_fading=0.95)``).
+(e.g. ``make("rls-ekf", mass_cutoff_hz=1.0, slope_gate_sigma=5.0)``).
 """
 
 from __future__ import annotations
@@ -23,13 +23,12 @@ from typing import Any, ClassVar
 
 from uuom_core.vehicle import VehicleParams
 
-from .aekf import SageHusaAEKF
 from .base import Estimate, Estimator
 from .ekf import SlopeEKF
-from .filters import check_dt
-from .rls import DFFRLSMassEstimator, RLSMassEstimator, _RLSMassBase
+from .filters import MAX_STEP_S, check_dt
+from .rls import RLSMassEstimator, _RLSMassBase
 
-__all__ = ["RLSEKF", "DFFRLSAEKF"]
+__all__ = ["RLSEKF"]
 
 
 def _split_options(options: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
@@ -60,6 +59,8 @@ class _TwoLayer(Estimator):
                accel_normal_mps2: float = math.nan) -> Estimate:
         if not (dt_s > 0.0 and dt_s < math.inf):
             check_dt(dt_s)
+        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
+            dt_s = MAX_STEP_S
         ml = self.mass_layer
         if ml.front.step(torque_nm, speed_mps, dt_s):
             ml._rls_step()
@@ -88,22 +89,3 @@ class RLSEKF(_TwoLayer):
     name: ClassVar[str] = "rls-ekf"
     _mass_cls = RLSMassEstimator
     _slope_cls = SlopeEKF
-
-
-class DFFRLSAEKF(_TwoLayer):
-    """``dffrls-aekf``: the paper's two-layer method — DFFRLS mass → Sage-Husa AEKF slope.
-
-    Gives mass (DFFRLS layer, dynamic forgetting, vector forgetting, bounded covariance, clamped to the vehicle's
-    mass range; the regression models the load swinging on its chains and corrects the mass only from samples
-    with |dv/dt| >= 0.05 m/s², see :mod:`estimators.rls`) and slope (Sage-Husa AEKF, fading factor 0.966, using the DFFRLS mass at every step), each with
-    its 1-sigma standard deviation. Options: ``mass_*`` as :class:`~estimators.rls.DFFRLSMassEstimator`
-    (``mass_delta``, ``mass_sigma``, ``mass_vector_forgetting`` ...), ``slope_*`` as
-    :class:`~estimators.aekf.SageHusaAEKF` (``slope_fading``, ``slope_adapt_q`` ...).
-
-    The accelerometer is not used (the paper's model takes dv/dt, here the low-passed derivative of the measured
-    speed); see ``sf-kf`` for the estimator that uses the specific force.
-    """
-
-    name: ClassVar[str] = "dffrls-aekf"
-    _mass_cls = DFFRLSMassEstimator
-    _slope_cls = SageHusaAEKF

@@ -27,22 +27,14 @@ from pathlib import Path
 import numpy as np
 
 import estimators
+from estimators.metrics import error_after_settling
+from estimators.protocol_report import PAPER_MASS_RMSE, PAPER_SLOPE_RMSE_DEG
 from uuom_core.trace import Trace
 from uuom_gym.sim.track import SCENARIO_NAMES as SCENARIOS
 
 # paper 000, Tables 1, 2, 4 (RMSE; mass in kg, slope in degrees as far as can be told; spec model.md §5.5)
-PAPER_MASS = {
-    "ffrls": (5.197, 5.197, 151.8),
-    "ekf": (3.657, 4.602, 188.0),
-    "dffrls": (3.065, 4.295, 123.2),
-    "dffrls-aekf": (3.065, 4.295, 123.2),
-}
-PAPER_SLOPE = {
-    "ffrls": (0.131, 0.149, 0.468),
-    "rls-ekf": (0.096, 0.057, 0.388),
-    "ekf": (0.281, 0.058, 0.427),
-    "dffrls-aekf": (0.053, 0.031, 0.328),
-}
+PAPER_MASS = PAPER_MASS_RMSE
+PAPER_SLOPE = PAPER_SLOPE_RMSE_DEG
 PAPER_TIME = {"dffrls-aekf": ("1.10-1.50", "1.31-1.61", "1.32-1.66")}
 FIG_METHODS = ("ffrls", "ekf", "rls-ekf", "dffrls-aekf", "sf-kf")
 
@@ -85,19 +77,19 @@ def evaluate(name: str, trace: Trace, settle_s: float, train_slope: np.ndarray |
     t0 = time.perf_counter()
     s = est.run(trace)
     elapsed = time.perf_counter() - t0
-    m = trace["t_s"] >= trace["t_s"][0] + settle_s
-    truth_m = trace["mass_kg"]
-    err_m = s.mass_kg[m] - truth_m[m]
-    err_s = s.slope_deg[m] - trace["slope_deg"][m]
-    err_ts = s.slope_deg[m] - train_slope[m] if train_slope is not None else np.full(1, np.nan)
+    t = trace["t_s"]
+    mass_pct = error_after_settling(t, s.mass_kg, trace["mass_kg"], settle_s, relative=True)
+    mass_kg = error_after_settling(t, s.mass_kg, trace["mass_kg"], settle_s)
+    slope = error_after_settling(t, s.slope_deg, trace["slope_deg"], settle_s)
+    vs_train = (error_after_settling(t, s.slope_deg, train_slope, settle_s) if train_slope is not None else None)
     return s, {
         "provides_mass": "mass" in est.provides,
         "provides_slope": "slope" in est.provides,
-        "slope_vs_train_rmse_deg": float(np.sqrt(np.mean(err_ts**2))),
-        "mass_rmse_kg": float(np.sqrt(np.mean(err_m**2))),
-        "mass_rmse_pct": float(100 * np.sqrt(np.mean((err_m / truth_m[m]) ** 2))),
-        "mass_final_pct": float(100 * (s.mass_kg[-1] / truth_m[-1] - 1)),
-        "slope_rmse_deg": float(np.sqrt(np.mean(err_s**2))),
+        "slope_vs_train_rmse_deg": vs_train.rmse if vs_train is not None else float("nan"),
+        "mass_rmse_kg": mass_kg.rmse,
+        "mass_rmse_pct": mass_pct.rmse,
+        "mass_final_pct": float(100 * (s.mass_kg[-1] / trace["mass_kg"][-1] - 1)),
+        "slope_rmse_deg": slope.rmse,
         "time_s": elapsed,
         "finite": bool(np.all(np.isfinite(s.mass_kg)) and np.all(np.isfinite(s.slope_rad))),
     }

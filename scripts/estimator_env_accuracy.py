@@ -32,6 +32,8 @@ import time
 
 import numpy as np
 
+from estimators.metrics import error_after_settling
+
 DEFAULT_ESTIMATORS = "none,dffrls-aekf@before,dffrls-aekf,sf-kf@before,sf-kf"
 SENSOR_KEYS = ("torque_nm", "speed_mps", "accel_mps2", "motor_speed_radps", "gyro_radps", "accel_normal_mps2")
 
@@ -123,12 +125,12 @@ def _recorded(seed: int) -> dict:
 
 
 def _errors(t_s, mass_true, mass_est, slope_true, slope_est, settle_s):
-    m = t_s >= settle_s
-    if not m.any():
+    """Mean |mass error| (%) and slope RMSE (deg) after the settle time (slopes in rad)."""
+    mass = error_after_settling(t_s, mass_est, mass_true, settle_s, relative=True)
+    slope = error_after_settling(t_s, np.degrees(slope_est), np.degrees(slope_true), settle_s)
+    if mass is None or slope is None:
         return math.nan, math.nan
-    merr = 100.0 * np.mean(np.abs(mass_est[m] / mass_true[m] - 1.0))
-    srmse = math.degrees(math.sqrt(np.mean((slope_est[m] - slope_true[m]) ** 2)))
-    return merr, srmse
+    return mass.mean_abs, slope.rmse
 
 
 def _replay(ep: dict, name: str) -> tuple[float, float]:

@@ -23,6 +23,7 @@ import numpy as np
 
 import estimators
 from estimators.imu.estimator import IMU_UKF_DEFAULTS
+from estimators.metrics import error_after_settling
 from estimators.imu.hho import METHODS, tune
 from uuom_gym.sim.imu_runs import make_runs
 
@@ -36,9 +37,7 @@ def slope_rmse_deg(traces, settings: dict[str, float], settle_s: float, truth: s
     for tr in traces:
         est = estimators.make("imu-ukf", **settings)
         s = est.run(tr)
-        keep = tr["t_s"] >= tr["t_s"][0] + settle_s
-        e = s.slope_deg[keep] - tr[truth][keep]
-        errs.append(float(np.sqrt(np.mean(e * e))))
+        errs.append(error_after_settling(tr["t_s"], s.slope_deg, tr[truth], settle_s).rmse)
     return float(np.mean(errs))
 
 

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 import estimators
-from estimators.rls import RegressionFrontEnd
+from estimators import dffrls_aekf_kernel as kern
+from estimators.regression_front_end import RegressionFrontEnd
 from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
 
 
@@ -42,7 +43,7 @@ def test_front_end_without_chains_is_the_point_mass_model() -> None:
     with pytest.raises(ValueError, match="chain_length_m"):
         RegressionFrontEnd(DEFAULT_VEHICLE, chain_length_m=-1.0)
     with pytest.raises(ValueError, match="hook_mass_kg"):
-        estimators.make("dffrls-aekf", mass_hook_mass_kg=-5.0)
+        estimators.make("dffrls-aekf", hook_mass_kg=-5.0)
 
 
 @pytest.fixture(scope="module")
@@ -76,8 +77,8 @@ def _mean_abs_mass_err_pct(runs, name: str, **opts) -> float:
 def test_dffrls_aekf_beats_the_prior_on_random_tracks(random_runs) -> None:
     prior = _mean_abs_mass_err_pct(random_runs, "none")
     paper = _mean_abs_mass_err_pct(random_runs, "dffrls-aekf")
-    before = _mean_abs_mass_err_pct(random_runs, "dffrls-aekf", mass_chain_length_m=0.0, mass_cutoff_hz=0.5,
-                                    mass_residual_std_mps2=0.3, mass_min_accel_mps2=0.0)
+    before = _mean_abs_mass_err_pct(random_runs, "dffrls-aekf", chain_length_m=0.0, cutoff_hz=0.5,
+                                    residual_std_mps2=0.3)
     assert paper < 7.0
     assert paper < 0.5 * prior
     assert paper < before
@@ -85,7 +86,7 @@ def test_dffrls_aekf_beats_the_prior_on_random_tracks(random_runs) -> None:
 
 def test_load_swing_model_helps_dffrls_aekf_and_sf_kf(random_runs) -> None:
     with_swing = _mean_abs_mass_err_pct(random_runs, "dffrls-aekf")
-    point_mass = _mean_abs_mass_err_pct(random_runs, "dffrls-aekf", mass_chain_length_m=0.0)
+    point_mass = _mean_abs_mass_err_pct(random_runs, "dffrls-aekf", chain_length_m=0.0)
     assert with_swing < point_mass
     sf = _mean_abs_mass_err_pct(random_runs, "sf-kf")
     assert sf < 5.0
@@ -102,5 +103,5 @@ def test_load_swing_model_stays_finite_at_slow_sample_rates(name: str) -> None:
         for _ in range(500):
             e = est.update(rng.uniform(0, 10_000), abs(rng.normal(1.0, 0.5)), rng.normal(0, 1), dt)
             assert math.isfinite(e.mass_kg) and math.isfinite(e.slope_rad) and math.isfinite(e.mass_std_kg)
-        fe = est.mass_layer.front if name == "dffrls-aekf" else est.front
-        assert abs(fe.sway) < 1.0
+        sway = est.S[kern.SWAY] if name == "dffrls-aekf" else est.front.sway
+        assert abs(sway) < 1.0

@@ -82,7 +82,7 @@ def test_joseph_and_repair() -> None:
     assert np.all(repair_pd(np.full((2, 2), np.nan), 1e-3) == np.eye(2) * 1e-3)
     p11, p12, p22 = repair_pd_2x2(1.0, 5.0, 1.0)
     assert p11 * p22 - p12 * p12 > 0
-    p11, p12, p22 = repair_pd_2x2(math.nan, 0.0, -1.0, floor=(1e-4, 1e-5))
+    p11, p12, p22 = repair_pd_2x2(math.nan, 0.0, -1.0, 1e-4, 1e-5)
     assert (p11, p22) == (1e-4, 1e-5)
 
 

@@ -29,20 +29,22 @@ def _random_inputs(rng: np.random.Generator, n: int) -> np.ndarray:
     return x
 
 
-def test_dffrls_aekf_covariances_pd_over_1e6_random_updates() -> None:
+@pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])
+def test_kernel_covariances_pd_over_1e6_random_updates(name: str) -> None:
+    from estimators import dffrls_aekf_kernel as kern
+
     rng = np.random.default_rng(2024)
-    est = estimators.make("dffrls-aekf")
+    est = estimators.make(name)
     update = est.update
-    ml, sl = est.mass_layer, est.slope_layer
+    S = est.S
     n_chunks, chunk = 100, 10_000
     for _ in range(n_chunks):
         x = _random_inputs(rng, chunk).tolist()
         for T, v, f, dt in x:
             update(T, v, f, dt)
-        assert _pd2(ml.P11, ml.P12, ml.P22)
-        assert _pd2(sl.P11, sl.P12, sl.P22)
-        assert _pd2(sl.Q11, sl.Q12, sl.Q22)
-        assert sl.r_min <= sl.R <= sl.r_max
+        assert np.linalg.eigvalsh(est.regression_P).min() > 0.0
+        assert _pd2(*est.slope_P[[0, 0, 1], [0, 1, 1]])
+        assert est.C[kern.R_MIN] <= S[kern.R] <= est.C[kern.R_MAX]
         e = est.estimate
         assert all(math.isfinite(v) for v in (e.mass_kg, e.slope_rad, e.mass_std_kg, e.slope_std_rad))
 

@@ -134,58 +134,6 @@ def test_options_reach_the_filter():
     assert "slope" in est.provides
 
 
-# ----------------------------------------------------------------- three-axis form (the paper's full filter)
-from estimators.imu.attitude_ukf import (QuaternionUKF, euler_to_quat, initial_attitude, quat_to_dcm,  # noqa: E402
-                                         quat_to_euler)
-
-
-def test_quaternion_euler_round_trip_and_gravity():
-    e = (math.radians(3.0), math.radians(-4.0), math.radians(20.0))
-    q = euler_to_quat(*e)
-    np.testing.assert_allclose(quat_to_euler(q), e, atol=1e-12)
-    f = quat_to_dcm(q).T @ np.array([0.0, 0.0, -G])
-    roll, pitch = e[0], e[1]
-    np.testing.assert_allclose(f, [G * math.sin(pitch), -G * math.sin(roll) * math.cos(pitch),
-                                   -G * math.cos(roll) * math.cos(pitch)], atol=1e-12)
-    m_b = quat_to_dcm(q).T @ QuaternionUKF().mag_ref
-    np.testing.assert_allclose(initial_attitude(f, m_b), e, atol=1e-9)
-
-
-def test_three_axis_ukf_converges_with_magnetometer():
-    rng = np.random.default_rng(1)
-    e = (math.radians(3.0), math.radians(-4.0), math.radians(20.0))
-    C = quat_to_dcm(euler_to_quat(*e))
-    ukf = QuaternionUKF()
-    f, m = C.T @ np.array([0.0, 0.0, -G]), C.T @ ukf.mag_ref
-    bias = np.array([0.01, -0.005, 0.003])
-    ukf.initialize((0.0, 0.0, 0.0), math.radians(20.0))
-    for _ in range(1500):
-        ukf.predict(bias + rng.normal(0, 2e-3, 3), 0.005)
-        ukf.update(f + rng.normal(0, 0.05, 3), m + rng.normal(0, 0.01, 3))
-    np.testing.assert_allclose(ukf.euler_rad, e, atol=math.radians(0.1))
-    assert np.all(np.linalg.eigvalsh(ukf.P) > 0) and np.allclose(ukf.P, ukf.P.T)
-
-
-def test_three_axis_ukf_agrees_with_the_pitch_filter_on_pure_pitch(run):
-    """Same algorithm: on a pitch-only motion the 3-axis filter and the planar fast form give the same pitch."""
-    n = 2000
-    gyro, ax, an = run["gyro_radps"][:n], run["accel_mps2"][:n], run["accel_normal_mps2"][:n]
-    planar = PitchQuaternionUKF(accel_noise_mps2=0.2, accel_normal_noise_mps2=0.2)
-    full = QuaternionUKF(accel_noise=0.2 / G)
-    p0 = math.atan2(ax[0], an[0])
-    planar.initialize(p0)
-    full.initialize((0.0, p0, 0.0))
-    a_pl, a_full = [], []
-    for i in range(1, n):
-        planar.predict(gyro[i], 0.005)
-        planar.update(ax[i], an[i])
-        full.predict(np.array([0.0, gyro[i], 0.0]), 0.005)
-        full.update(np.array([ax[i], 0.0, -an[i]]))
-        a_pl.append(planar.pitch_rad)
-        a_full.append(full.euler_rad[1])
-    assert np.max(np.abs(np.degrees(np.array(a_pl) - np.array(a_full)))) < 0.2
-
-
 # ----------------------------------------------------------------- on the project's plant
 def test_imu_ukf_on_the_plant_follows_the_drive_unit_pitch():
     from uuom_gym.sim import recording

@@ -27,6 +27,8 @@ from typing import Any
 from estimators.base import Estimate, Estimator
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
+from ..filters import MAX_STEP_S
+from ..input_limits import InputLimits, plausible
 from .attitude_ukf import PitchQuaternionUKF, UKFConfigError
 
 __all__ = ["IMUUKFEstimator", "IMU_UKF_DEFAULTS"]
@@ -84,6 +86,7 @@ class IMUUKFEstimator(Estimator):
         veh = self.vehicle
         self._mass_prior = veh.empty_mass_kg + 0.5 * veh.rated_load_kg
         self._mass_std = 0.5 * veh.rated_load_kg
+        self._limits = InputLimits.for_vehicle(veh)
         self._r_v = settings["speed_noise_mps"] ** 2
         self._q_j = settings["jerk_std_mps3"] ** 2
         self.reset()
@@ -127,8 +130,20 @@ class IMUUKFEstimator(Estimator):
     def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
+        """Process one sample (speed, both accelerometer axes and the gyro are used).
+
+        NaN, and a value beyond :class:`~estimators.input_limits.InputLimits` (``inf``, ``1e300``), count as
+        missing. A ``dt_s`` above :data:`~estimators.filters.MAX_STEP_S` is a data gap: the filters predict over
+        that long. Raises ``ValueError`` for a ``dt_s`` that is not finite and > 0.
+        """
         if not (dt_s > 0.0 and math.isfinite(dt_s)):
             raise ValueError(f"imu-ukf: dt_s must be finite and > 0, got {dt_s!r}")
+        dt_s = min(dt_s, MAX_STEP_S)
+        lim = self._limits
+        speed_mps = plausible(speed_mps, lim.speed_mps)
+        accel_mps2 = plausible(accel_mps2, lim.accel_mps2)
+        accel_normal_mps2 = plausible(accel_normal_mps2, lim.accel_mps2)
+        gyro_radps = plausible(gyro_radps, lim.gyro_radps)
         self._speed_filter(speed_mps, dt_s)
         ukf = self.ukf
         a_lin = self._a if self._v_init else 0.0
@@ -150,9 +165,14 @@ class IMUUKFEstimator(Estimator):
             ukf.update(accel_mps2, accel_normal_mps2, a_lin, scale)
         slope = ukf.pitch_rad
         slope_std = ukf.pitch_std_rad
-        if not (math.isfinite(slope) and math.isfinite(slope_std)):  # pragma: no cover - defensive
+        if not (math.isfinite(slope) and math.isfinite(slope_std) and math.isfinite(ukf.bias_radps)):
+            # last line of defence (inputs are gated): restart the attitude rather than report NaN
             ukf.reset()
             slope, slope_std = 0.0, _UNINIT_SLOPE_STD_RAD
+        if not math.isfinite(a_lin):
+            self._v, self._a, self._v_init = 0.0, 0.0, False
+            self._pvv, self._pva, self._paa = 1.0, 0.0, 1.0
+            a_lin = 0.0
         self._estimate = Estimate(self._mass_prior, slope, self._mass_std, slope_std,
                                   {"gyro_bias_radps": ukf.bias_radps, "lin_accel_mps2": a_lin})
         return self._estimate

@@ -21,12 +21,15 @@ probability does the evidence override the order, so a missed short phase cannot
 also changes cruise speed (cruise → accelerate/decelerate → cruise), so ``transitions="monorail"`` keeps only
 the physical part of the paper's order: no standstill → cruising/decelerating, no accelerating/cruising →
 standstill.
+
+Layout: states, truth labels and window features in :mod:`estimators.imu.motion_features`; the order constraint
+in :mod:`estimators.imu.motion_order`; the online recogniser here (everything is re-exported from this module).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -35,199 +38,15 @@ from uuom_core.vehicle import G_MPS2
 
 from ..filters import hold_last_valid
 from .denoise import SlidingWaveletDenoiser
+from .motion_features import (ACCELERATING, CRUISING, DECELERATING, FEATURE_SETS, STANDSTILL, STATE_NAMES,
+                              MotionStateError, label_motion_states, per_state_accuracy, window_features)
+from .motion_order import TRANSITIONS, _ForwardFilter, apply_temporal_constraint
 
 __all__ = [
     "ACCELERATING", "CRUISING", "DECELERATING", "STANDSTILL", "STATE_NAMES", "TRANSITIONS",
     "MotionStateError", "MotionStateRecognizer", "apply_temporal_constraint", "label_motion_states",
     "per_state_accuracy", "window_features",
 ]
-
-STANDSTILL, ACCELERATING, CRUISING, DECELERATING = 0, 1, 2, 3
-STATE_NAMES: tuple[str, ...] = ("standstill", "accelerating", "cruising", "decelerating")
-FEATURE_SETS: dict[str, tuple[str, ...]] = {
-    "paper": ("impulse_factor", "skewness", "mean_energy", "rms_frequency_hz"),
-    "paper+speed": ("impulse_factor", "skewness", "mean_energy", "rms_frequency_hz", "mean_speed_mps",
-                    "speed_slope_mps2", "mean_accel_mps2"),
-}
-
-_PAPER = np.array([[1, 1, 0, 0], [0, 1, 1, 0], [0, 0, 1, 1], [1, 0, 0, 1]], dtype=bool)
-_MONORAIL = np.array([[1, 1, 0, 0], [0, 1, 1, 1], [0, 1, 1, 1], [1, 1, 1, 1]], dtype=bool)
-TRANSITIONS: dict[str, np.ndarray | None] = {"paper": _PAPER, "monorail": _MONORAIL, "none": None}
-"""Allowed transitions ``allowed[from, to]`` of each temporal constraint."""
-
-
-class MotionStateError(ValueError):
-    """Bad input to the motion-state recogniser; the message names it."""
-
-
-def label_motion_states(true_speed_mps: np.ndarray, dt_s: float, *, standstill_speed_mps: float = 0.01,
-                        accel_threshold_mps2: float = 0.02, smooth_s: float = 0.25) -> np.ndarray:
-    """Truth labels from the true speed: standstill below ``standstill_speed_mps``, else by the sign of dv/dt.
-
-    ``dv/dt`` is taken from the speed smoothed over ``smooth_s`` (centred), so it is a property of the motion,
-    not of the differentiation noise.
-    """
-    v = np.asarray(true_speed_mps, dtype=np.float64)
-    if v.ndim != 1 or v.size == 0:
-        raise MotionStateError(f"true_speed_mps must be a non-empty 1-D array, got shape {v.shape}")
-    if not np.all(np.isfinite(v)):
-        raise MotionStateError("true_speed_mps contains NaN or inf")
-    if not (dt_s > 0 and math.isfinite(dt_s)):
-        raise MotionStateError(f"dt_s must be finite and > 0, got {dt_s!r}")
-    w = max(int(round(smooth_s / dt_s)), 1)
-    vs = np.convolve(np.pad(v, (w // 2, w - 1 - w // 2), mode="edge"), np.ones(w) / w, mode="valid")
-    a = np.gradient(vs, dt_s) if v.size > 1 else np.zeros(1)
-    labels = np.full(v.size, CRUISING, dtype=np.int64)
-    labels[a > accel_threshold_mps2] = ACCELERATING
-    labels[a < -accel_threshold_mps2] = DECELERATING
-    labels[np.abs(v) < standstill_speed_mps] = STANDSTILL
-    return labels
-
-
-def window_features(windows: np.ndarray, sample_hz: float, speed_windows: np.ndarray | None = None,
-                    feature_set: str = "paper") -> np.ndarray:
-    """Features of each row of ``windows`` (shape (m, w)); see the module docstring.
-
-    Parameters
-    ----------
-    windows : ndarray, shape (m, w) or (w,)
-        Motion-acceleration windows (m/s²).
-    sample_hz : float
-    speed_windows : ndarray, same shape, optional
-        Speed windows; required for ``"paper+speed"``.
-    feature_set : {"paper", "paper+speed"}
-
-    Returns
-    -------
-    ndarray, shape (m, n_features), finite.
-    """
-    if feature_set not in FEATURE_SETS:
-        raise MotionStateError(f"feature_set must be one of {sorted(FEATURE_SETS)}, got {feature_set!r}")
-    x = np.atleast_2d(np.asarray(windows, dtype=np.float64))
-    m, w = x.shape
-    if w < 4:
-        raise MotionStateError(f"windows need at least 4 samples, got {w}")
-    ax = np.abs(x)
-    mean_abs = ax.mean(axis=1)
-    impulse = ax.max(axis=1) / np.maximum(mean_abs, 1e-9)
-    mu = x.mean(axis=1, keepdims=True)
-    d = x - mu
-    var = (d * d).mean(axis=1)
-    sd = np.sqrt(var)
-    skew = np.where(sd > 1e-9, (d ** 3).mean(axis=1) / np.maximum(sd, 1e-9) ** 3, 0.0)
-    energy = (x * x).mean(axis=1)
-    spec = np.abs(np.fft.rfft(x, axis=1)) ** 2
-    f = np.fft.rfftfreq(w, 1.0 / sample_hz)
-    tot = spec.sum(axis=1)
-    rms_f = np.sqrt(np.where(tot > 0, (spec * f * f).sum(axis=1) / np.maximum(tot, 1e-300), 0.0))
-    cols = [impulse, skew, energy, rms_f]
-    if feature_set == "paper+speed":
-        if speed_windows is None:
-            raise MotionStateError("feature_set 'paper+speed' needs speed_windows")
-        v = np.atleast_2d(np.asarray(speed_windows, dtype=np.float64))
-        if v.shape != x.shape:
-            raise MotionStateError(f"speed_windows shape {v.shape} differs from windows shape {x.shape}")
-        tt = (np.arange(w) - (w - 1) / 2.0) / sample_hz
-        slope = (v - v.mean(axis=1, keepdims=True)) @ tt / float(tt @ tt)
-        cols += [v.mean(axis=1), slope, mu[:, 0]]
-    return np.nan_to_num(np.column_stack(cols), nan=0.0, posinf=0.0, neginf=0.0)
-
-
-def apply_temporal_constraint(proba: np.ndarray, transitions: str = "paper", *, stay_prob: float = 0.9,
-                              class_prior: Sequence[float] | None = None, override_ratio: float = 0.1) -> np.ndarray:
-    """Causal forward pass of the temporal order constraint over a sequence of class probabilities.
-
-    Parameters
-    ----------
-    proba : ndarray, shape (m, 4)
-        Forest probabilities per window, in time order.
-    transitions : {"paper", "monorail", "none"}
-    stay_prob : float
-        Probability of staying in a state from one window to the next.
-    class_prior : sequence of 4 floats, optional
-        Class frequencies of the training set (the forest's probabilities are divided by them).
-    override_ratio : float
-        The forest overrides the order when every allowed state has less than this share of its best
-        probability (0: never).
-
-    Returns
-    -------
-    ndarray of int, shape (m,)
-    """
-    proba = np.asarray(proba, dtype=np.float64)
-    if proba.ndim != 2 or proba.shape[1] != 4:
-        raise MotionStateError(f"proba must have shape (m, 4), got {proba.shape}")
-    filt = _ForwardFilter(transitions, stay_prob, class_prior, override_ratio)
-    return np.array([filt.step(p) for p in proba], dtype=np.int64)
-
-
-class _ForwardFilter:
-    """Greedy causal decoder of the order constraint: ``s_t = argmax_j A[s_{t-1}, j] p_j / prior_j``.
-
-    If the forest gives every allowed next state less than ``override_ratio`` times its best probability, the
-    evidence wins and the decoder jumps to the forest's choice (so a missed short phase cannot lock it in the
-    wrong state; ``override_ratio = 0`` makes the constraint absolute).
-    """
-
-    def __init__(self, transitions: str, stay_prob: float, class_prior: Sequence[float] | None,
-                 override_ratio: float = 0.1) -> None:
-        if transitions not in TRANSITIONS:
-            raise MotionStateError(f"transitions must be one of {sorted(TRANSITIONS)}, got {transitions!r}")
-        if not 0.0 < stay_prob < 1.0:
-            raise MotionStateError(f"stay_prob must be in (0, 1), got {stay_prob!r}")
-        if not 0.0 <= override_ratio < 1.0:
-            raise MotionStateError(f"override_ratio must be in [0, 1), got {override_ratio!r}")
-        allowed = TRANSITIONS[transitions]
-        self.allowed = allowed
-        if allowed is None:
-            self.A = None
-        else:
-            A = np.zeros((4, 4))
-            for i in range(4):
-                others = [j for j in range(4) if allowed[i, j] and j != i]
-                A[i, i] = stay_prob
-                for j in others:
-                    A[i, j] = (1.0 - stay_prob) / len(others)
-            self.A = A
-        prior = np.full(4, 0.25) if class_prior is None else np.asarray(class_prior, dtype=np.float64)
-        self.inv_prior = 1.0 / np.maximum(prior, 1e-6)
-        self.override_ratio = override_ratio
-        self.state: int | None = None
-        self.overrides = 0
-
-    def reset(self) -> None:
-        self.state = None
-
-    def step(self, p: np.ndarray) -> int:
-        lik = np.asarray(p, dtype=np.float64) * self.inv_prior
-        best = int(np.argmax(lik))
-        if self.A is None or self.state is None:
-            self.state = best
-            return best
-        row = self.allowed[self.state]
-        best_allowed = float(np.max(np.where(row, lik, 0.0)))
-        if self.override_ratio > 0.0 and best_allowed <= self.override_ratio * float(lik[best]):
-            self.overrides += 1
-            self.state = best
-            return best
-        score = self.A[self.state] * lik
-        if score.max() > 0.0:
-            self.state = int(np.argmax(score))
-        return self.state
-
-
-def per_state_accuracy(true_states: np.ndarray, predicted: np.ndarray) -> dict[str, float]:
-    """Per-state recall (share of each true state's samples recognised as that state) and the overall share."""
-    t = np.asarray(true_states)
-    p = np.asarray(predicted)
-    if t.shape != p.shape:
-        raise MotionStateError(f"true and predicted states differ in shape: {t.shape} vs {p.shape}")
-    out = {}
-    for k, name in enumerate(STATE_NAMES):
-        mask = t == k
-        out[name] = float(np.mean(p[mask] == k)) if mask.any() else math.nan
-    out["overall"] = float(np.mean(p == t)) if t.size else math.nan
-    return out
 
 
 class MotionStateRecognizer:

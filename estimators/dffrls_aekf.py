@@ -1,0 +1,331 @@
+"""``dffrls-aekf``: the project's two-layer estimator in the paper's structure (DFFRLS mass -> adaptive EKF slope),
+the environment's default observer. The paper's equations as printed are ``dffrls-aekf-paper``
+(:mod:`estimators.dffrls_aekf_paper`); every deviation below is an option, and its measured effect is in the
+ablation table of ``docs/estimators.md``.
+
+**Slope layer: adaptive EKF on** ``x = [v, θ_s]`` (θ_s: the slope under the sensors), corrected by the encoder
+speed, with the Sage-Husa estimate of the speed-noise variance R̂ (fading factor 0.966 as the paper). Its process
+model is the accelerometer's specific force ``f = dv/dt + g sin θ`` (spec §4)::
+
+    v_k = v_{k-1} + Δt (f_{k-1} − g sin θ_{k-1}),   θ_k = θ_{k-1} + w,   var(w) = q_θ |v| Δt
+
+so the slope needs neither the mass nor μ nor the torque and does not inherit the mass error (``use_accel``;
+without it, and whenever the accelerometer sample is missing, the paper's torque model with the mass layer's
+M̂ and μ̂ takes over). The slope's random walk is per metre travelled (the grade is a function of position).
+
+**Slope under the train.** Gravity acts on the whole 18 m train; the sensors measure the slope at one point (on
+the project's plant: the drive section at the front). The reported slope is the mean of θ_s over the last
+``train_length_m`` of travel (a history along the distance travelled), which is what gravity acts on and what
+the safety rules use. Default 12 m, not the vehicle's 18.1 m: the train's mass is not spread evenly (on the
+plant the payload hangs 9 m behind the sensors); on plant tuning runs 1000-1015 a 18.1 m window gave a median
+slope RMSE of 0.80°, 14 m 0.37°, 10 m 0.39° (before the start-up history fix); after it 18.1 / 14 / 12 / 10 m:
+median 0.66 / 0.26 / 0.29 / 0.36°, 90th percentile 1.20 / 0.59 / 0.42 / 0.55°: 12 m, for the percentile.
+``train_length_m=0``: a point mass, the local slope. This window is
+a fixed geometry assumption: on a world where gravity acts at one point it lags every grade change.
+
+**Mass layer: DFFRLS on the specific-force regression of the whole train**::
+
+    (F − m_rot a − M_rigid (a − a_L)) / M_ref = [a_L + g sin θ̄, g] · [c, o]ᵀ,   c = M / M_ref
+
+with ``F = T/r`` and ``a = dv/dt`` through the same second-order low-pass (phase lags cancel), θ̄ the slope under
+the train from the slope layer, ``a_L`` the acceleration of the load swinging on its chains (a pendulum forced by
+dv/dt, ``chain_length_m``; 0 = rigid). ``o`` (offset mode, ``offset_forgetting_ratio > 0``, default) is the
+running resistance ``μ c cos θ`` plus whatever constant the upper layer gets wrong (accelerometer bias, slope
+geometry), so a wrong μ in the vehicle file does not become a mass error; ``offset_forgetting_ratio=0`` gives the
+``g cos θ̄`` regressor and ``o = μ c`` (μ proper). The dynamic forgetting factor λ_k = δ + (1−δ) exp(−σ|e_k|)
+(paper eq. 19, λ from the current residual) is applied per parameter, ``1 − r (1 − λ_k)`` with
+``r = mass_forgetting_ratio`` (0.005) for c and ``offset_forgetting_ratio`` (1) for o, bounded by the prior
+variance. The mass is corrected only from |a_L| ≥ ``min_accel_mps2`` (0.05 m/s²; Schmidt update otherwise: at
+constant speed a slope error of the upper layer would be read as mass). No update at standstill, without traction
+(the brake force is not measured), before the slope layer has settled, or while the slope under the train changes
+faster than the two-point history can follow (``max_slope_spread_rad``).
+
+Robust by construction (see :mod:`estimators.dffrls_aekf_kernel`): inputs checked for finiteness and magnitude,
+spike gates, dt NaN/0/negative = sample ignored, dt above ``gap_s`` = a gap (restart, no integration over it).
+
+Speed: one compiled step (numba) serves ``update()`` and the batch ``run()``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from uuom_core.trace import Trace
+from uuom_core.vehicle import G_MPS2, VehicleParams
+
+from . import dffrls_aekf_kernel as kern
+from .base import Estimate, EstimateSeries, Estimator
+from .filters import MAX_STEP_S
+
+__all__ = ["DFFRLSAEKF", "DFFRLSAEKFConfig"]
+
+
+@dataclass(frozen=True)
+class DFFRLSAEKFConfig:
+    """Settings of ``dffrls-aekf`` (and ``fused``); each is also a keyword option of the estimator. Tuned on plant
+    runs only (the previous session's; ``train_length_m``, ``min_accel_mps2``, ``offset_forgetting_ratio``,
+    ``residual_std_mps2`` and ``mu_prior_std`` on plant runs 1000-1015 of ``uuom_gym.sim.protocol_runs``); the
+    ablation switches are marked (A). Fields not listed below are documented in the module docstring.
+
+    Attributes
+    ----------
+    use_accel : bool
+        (A) Slope layer driven by the accelerometer's specific force. False: the paper's torque/mass model.
+    estimate_mu : bool
+        (A) Estimate μ jointly with the mass. False: μ fixed at ``running_resistance``.
+    train_length_m : float or None
+        (A) Length over which the slope is averaged for gravity (None: the vehicle's length; 0: point mass;
+        default 12 m, chosen on plant runs, see the module docstring).
+    chain_length_m : float
+        (A) Chain length of the swinging load (0: rigid load).
+    mass_forgetting_ratio : float
+        (A) Vector forgetting ratio ``r`` (1: the paper's single dynamic λ on the parameters).
+    gates : bool
+        (A) Spike gates on the inputs, the speed-innovation gate and the regression outlier gate.
+    adapt_r : bool
+        (A) Sage-Husa adaptation of the speed-noise variance (the paper adapts Q, R and the means).
+    max_slope_spread_rad : float
+        (A) No mass update while the slope under the sensors and ``train_length_m`` behind differ by more.
+    cutoff_hz : float
+        (A) Low-pass corner of the regression signals (both sides).
+    """
+
+    use_accel: bool = True
+    estimate_mu: bool = True
+    train_length_m: float | None = 12.0
+    chain_length_m: float = 2.0
+    mass_forgetting_ratio: float = 0.005
+    gates: bool = True
+    adapt_r: bool = True
+    max_slope_spread_rad: float = 0.025
+    cutoff_hz: float = 1.0
+    # slope layer
+    speed_std_mps: float = 0.01
+    accel_std_mps2: float = 0.3
+    model_accel_std_mps2: float = 0.3
+    grade_std_rad_per_sqrt_m: float = 0.01
+    prior_slope_std_rad: float = 0.1
+    fading: float = 0.966
+    gate_sigma: float = 6.0
+    relock_after: int = 40
+    history_step_m: float = 0.25
+    # mass layer
+    delta: float = 0.95
+    sigma: float = 5.0
+    residual_std_mps2: float = 0.03
+    prior_mass_kg: float | None = None
+    running_resistance: float | None = None
+    mu_prior_std: float = 0.05
+    mu_max: float = 0.1
+    sway_damping_ratio: float = 0.05
+    hook_mass_kg: float = 300.0
+    min_speed_mps: float = 0.05
+    min_accel_mps2: float = 0.05
+    offset_forgetting_ratio: float = 1.0
+    fused: bool = False
+    accel_bias_std_mps2: float = 0.02
+    blend_prior_std: float = 0.5
+    min_traction_fraction: float = 0.02
+    settle_s: float = 1.0
+    slope_ready_std_rad: float = math.radians(1.0)
+    gap_s: float = MAX_STEP_S
+    dt_nominal_s: float = 0.005
+
+    def settings(self, v: VehicleParams) -> np.ndarray:
+        """The kernel's settings array for vehicle ``v`` (validates every value)."""
+        positive = ("cutoff_hz", "speed_std_mps", "accel_std_mps2", "model_accel_std_mps2", "prior_slope_std_rad",
+                    "gate_sigma", "history_step_m", "sigma", "residual_std_mps2", "mu_prior_std", "mu_max",
+                    "slope_ready_std_rad", "gap_s", "dt_nominal_s", "max_slope_spread_rad")
+        non_negative = ("chain_length_m", "mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio",
+                        "hook_mass_kg", "min_speed_mps", "min_accel_mps2", "offset_forgetting_ratio",
+                        "accel_bias_std_mps2",
+                        "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after")
+        for name in positive + non_negative:
+            x = getattr(self, name)
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or math.isnan(x) or (
+                    x == math.inf and name != "max_slope_spread_rad") or x < 0 or (name in positive and x <= 0):
+                kind = "> 0" if name in positive else ">= 0"
+                raise ValueError(f"dffrls-aekf: {name} must be a finite number {kind}, got {x!r}")
+        if not (0.5 <= self.delta < 1.0):
+            raise ValueError(f"dffrls-aekf: delta must be in [0.5, 1), got {self.delta!r}")
+        if not (0.0 < self.fading < 1.0):
+            raise ValueError(f"dffrls-aekf: fading must be in (0, 1), got {self.fading!r}")
+        if self.mass_forgetting_ratio > 1.0:
+            raise ValueError(
+                f"dffrls-aekf: mass_forgetting_ratio must be in [0, 1], got {self.mass_forgetting_ratio!r}")
+        mu0 = v.running_resistance if self.running_resistance is None else float(self.running_resistance)
+        if not (0.0 <= mu0 < 0.5):
+            raise ValueError(f"dffrls-aekf: running_resistance must be in [0, 0.5), got {mu0!r}")
+        m_ref = v.empty_mass_kg + 0.5 * v.rated_load_kg
+        prior = m_ref if self.prior_mass_kg is None else float(self.prior_mass_kg)
+        if not (v.empty_mass_kg <= prior <= v.max_mass_kg):
+            raise ValueError(f"dffrls-aekf: prior_mass_kg must lie in [{v.empty_mass_kg}, {v.max_mass_kg}], "
+                             f"got {self.prior_mass_kg!r}")
+        if not (0.0 <= self.hook_mass_kg <= v.empty_mass_kg):
+            raise ValueError(f"dffrls-aekf: hook_mass_kg must be in [0, empty_mass_kg], got {self.hook_mass_kg!r}")
+        length = v.length_m if self.train_length_m is None else float(self.train_length_m)
+        if not (0.0 <= length < math.inf):
+            raise ValueError(f"dffrls-aekf: train_length_m must be a finite number >= 0, got {self.train_length_m!r}")
+        n_hist = int(round(length / self.history_step_m))
+        if n_hist > kern.N_HIST_MAX:
+            raise ValueError(f"dffrls-aekf: train_length_m / history_step_m must be <= {kern.N_HIST_MAX}")
+        C = np.zeros(kern.N_C)
+        r = v.drive_wheel_radius_m
+        max_torque = v.max_traction_n * r
+        c0 = prior / m_ref
+        C[kern.GAP_S] = self.gap_s
+        C[kern.DT_NOM] = self.dt_nominal_s
+        C[kern.RADIUS] = r
+        C[kern.M_ROT] = v.rotating_mass_kg
+        C[kern.M_REF] = m_ref
+        C[kern.M_RIGID] = v.empty_mass_kg - self.hook_mass_kg
+        C[kern.C_MIN] = v.empty_mass_kg / m_ref
+        C[kern.C_MAX] = v.max_mass_kg / m_ref
+        C[kern.C0] = c0
+        C[kern.MU0] = mu0
+        C[kern.MU_MAX] = self.mu_max
+        C[kern.CUT_HZ] = self.cutoff_hz
+        C[kern.FAST_HZ] = 5.0  # speed for the pendulum's forcing: well above the swing (0.35 Hz at 2 m)
+        C[kern.CHAIN_L] = self.chain_length_m
+        C[kern.SWAY_DAMP] = 2.0 * self.sway_damping_ratio * math.sqrt(G_MPS2 * self.chain_length_m)
+        C[kern.SWAY_H] = 0.5 * math.sqrt(self.chain_length_m / G_MPS2) if self.chain_length_m > 0 else 1.0
+        C[kern.MIN_SPEED] = self.min_speed_mps
+        C[kern.MIN_ACC] = self.min_accel_mps2
+        C[kern.OFF_FORGET] = self.offset_forgetting_ratio
+        C[kern.FUSED] = float(bool(self.fused))
+        if self.fused and not (self.offset_forgetting_ratio > 0.0 and self.estimate_mu):
+            raise ValueError("dffrls-aekf: fused needs offset_forgetting_ratio > 0 and estimate_mu")
+        C[kern.P0_B] = (self.blend_prior_std * c0) ** 2
+        C[kern.BIAS_VAR] = self.accel_bias_std_mps2**2
+        # samples per independent one of the regression's low-passed signals, 1 / (2 f_c dt) (100 at 1 Hz, 200 Hz)
+        C[kern.CORR_N] = max(1.0, 1.0 / (2.0 * self.cutoff_hz * self.dt_nominal_s))
+        C[kern.MIN_FORCE] = self.min_traction_fraction * v.max_traction_n
+        C[kern.SETTLE_S] = self.settle_s
+        # torque may step with the driver's command; speed may not jump (a <= ~3 m/s^2); specific force <= 3 g
+        C[kern.T_MAX], C[kern.T_RATE], C[kern.T_BAND] = 3.0 * max_torque, 50.0 * max_torque, 0.5 * max_torque
+        C[kern.V_MAX], C[kern.V_RATE], C[kern.V_BAND] = 20.0, 8.0, 0.1
+        C[kern.F_MAX], C[kern.F_RATE], C[kern.F_BAND] = 3.0 * G_MPS2, 400.0, 3.0
+        C[kern.RELOCK] = float(self.relock_after)
+        C[kern.GATES] = float(bool(self.gates))
+        R0 = self.speed_std_mps**2
+        C[kern.R0], C[kern.R_MIN], C[kern.R_MAX] = R0, 0.1 * R0, 100.0 * R0
+        C[kern.FADING] = self.fading
+        C[kern.ADAPT_R] = float(bool(self.adapt_r))
+        C[kern.ACC_VAR] = self.accel_std_mps2**2
+        C[kern.MODEL_ACC_VAR] = self.model_accel_std_mps2**2
+        C[kern.GRADE_VAR_M] = self.grade_std_rad_per_sqrt_m**2
+        C[kern.P0_TH] = self.prior_slope_std_rad**2
+        C[kern.GATE2] = self.gate_sigma**2
+        C[kern.MAX_SLOPE] = math.radians(v.max_grade_deg + 5.0)
+        C[kern.USE_ACCEL] = float(bool(self.use_accel))
+        C[kern.HIST_DS] = self.history_step_m
+        C[kern.N_HIST] = float(n_hist)
+        C[kern.R_M] = self.residual_std_mps2**2
+        C[kern.DELTA] = self.delta
+        C[kern.SIGMA] = self.sigma
+        C[kern.MASS_FORGET] = self.mass_forgetting_ratio
+        # prior of c = M/M_ref (half the mass range) and d = mu c (correlated with c through the nominal mu)
+        pc = (0.5 * (v.max_mass_kg - v.empty_mass_kg) / m_ref) ** 2
+        C[kern.P0_C] = pc
+        C[kern.P0_CD] = mu0 * pc
+        C[kern.P0_D] = (self.mu_prior_std * c0) ** 2 + mu0 * mu0 * pc
+        C[kern.EST_MU] = float(bool(self.estimate_mu))
+        C[kern.MAX_SPREAD] = self.max_slope_spread_rad
+        C[kern.READY_VAR] = self.slope_ready_std_rad**2
+        C[kern.Q_C] = 1e-12  # a tiny random walk: never fully rigid
+        return C
+
+
+_FIELDS = frozenset(f.name for f in dataclasses.fields(DFFRLSAEKFConfig))
+
+
+class DFFRLSAEKF(Estimator):
+    """``dffrls-aekf``: DFFRLS mass -> adaptive EKF slope with the accelerometer (module docstring).
+
+    Parameters
+    ----------
+    vehicle : VehicleParams, optional
+    config : DFFRLSAEKFConfig, optional
+    **options
+        Any field of :class:`DFFRLSAEKFConfig` (overrides ``config``). Unknown names raise ``TypeError``.
+
+    Gives mass, slope (under the whole train) and μ (``extras["mu"]``, ``extras["mu_std"]``) with 1-sigma
+    standard deviations. ``dt_s`` NaN, zero or negative: the sample is ignored; above ``gap_s``: a data gap.
+    """
+
+    name: ClassVar[str] = "dffrls-aekf"
+    provides: ClassVar[frozenset[str]] = frozenset({"mass", "slope", "mu"})
+
+    def __init__(self, vehicle: VehicleParams | None = None, config: DFFRLSAEKFConfig | None = None,
+                 **options: Any) -> None:
+        unknown = sorted(set(options) - _FIELDS)
+        if unknown:
+            raise TypeError(f"{type(self).__name__}: unknown option(s): {', '.join(unknown)}")
+        super().__init__(vehicle)
+        self.config = dataclasses.replace(config or DFFRLSAEKFConfig(), **options)
+        self.C = self.config.settings(self.vehicle)
+        self.S = np.zeros(kern.N_S)
+        self.H = np.zeros(kern.N_HIST_MAX)
+        self._out = np.zeros(7)
+        self.reset()
+
+    def reset(self) -> None:
+        kern.reset(self.S, self.H, self.C)
+
+    def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
+               motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
+               accel_normal_mps2: float = math.nan) -> Estimate:
+        kern.step(self.S, self.H, self.C, float(torque_nm), float(speed_mps), float(accel_mps2), float(dt_s))
+        return self.estimate
+
+    @property
+    def estimate(self) -> Estimate:
+        o = self._out
+        kern.estimate(self.S, self.C, o)
+        extras = {"mu": float(o[4]), "mu_std": float(o[5])}
+        if self.config.fused:
+            extras["gravity_weight_sensor"] = float(o[6])
+        return Estimate(float(o[0]), float(o[1]), float(o[2]), float(o[3]), extras)
+
+    def run(self, trace: Trace, reset: bool = True) -> EstimateSeries:
+        """The whole trace in one compiled loop; the same results as calling :meth:`update` per sample."""
+        if reset:
+            self.reset()
+        t = np.ascontiguousarray(trace["t_s"], dtype=np.float64)
+        n = len(t)
+        dts = np.diff(t, prepend=t[0] - (t[1] - t[0] if n > 1 else 0.005))
+        out = np.empty((n, 7))
+        col = [np.ascontiguousarray(trace[k], dtype=np.float64) for k in ("torque_nm", "speed_mps", "accel_mps2")]
+        kern.run(self.S, self.H, self.C, col[0], col[1], col[2], dts, out)
+        extras = {"mu": out[:, 4].copy(), "mu_std": out[:, 5].copy()}
+        if self.config.fused:
+            extras["gravity_weight_sensor"] = out[:, 6].copy()
+        return EstimateSeries(t.copy(), out[:, 0].copy(), out[:, 1].copy(), out[:, 2].copy(), out[:, 3].copy(),
+                              extras)
+
+    # views for tests and diagnostics ---------------------------------------------------------------------------
+    @property
+    def slope_P(self) -> np.ndarray:
+        """Covariance of the slope layer's ``[v, θ_s]``."""
+        S = self.S
+        return np.array([[S[kern.P11], S[kern.P12]], [S[kern.P12], S[kern.P22]]])
+
+    @property
+    def regression_P(self) -> np.ndarray:
+        """Covariance of the regression's parameters: ``[c, d]`` (2x2), or ``[c, o, β]`` (3x3) when ``fused``."""
+        S = self.S
+        if not self.config.fused:
+            return self.mass_P
+        return np.array([[S[kern.PC], S[kern.PCD], S[kern.PCB]], [S[kern.PCD], S[kern.PD], S[kern.PDB]],
+                         [S[kern.PCB], S[kern.PDB], S[kern.PB]]])
+
+    @property
+    def mass_P(self) -> np.ndarray:
+        """Covariance of the mass layer's ``[M/M_ref, μ M/M_ref]``."""
+        S = self.S
+        return np.array([[S[kern.PC], S[kern.PCD]], [S[kern.PCD], S[kern.PD]]])

@@ -1,0 +1,433 @@
+"""The compiled per-sample step of ``dffrls-aekf`` and ``fused`` (see :mod:`estimators.dffrls_aekf` for the method).
+
+About 420 lines on purpose: :func:`step` is one compiled function over three arrays (its helpers are inlined by
+numba); the array layout is in :mod:`estimators.dffrls_aekf_layout`, the fused regression in
+:mod:`estimators.fused_kernel`.
+
+The whole estimator state lives in two float64 arrays (``S``: scalars, ``H``: the slope history along the distance
+travelled) and its settings in a third (``C``), indexed by the module constants below, so one function,
+:func:`step`, serves both the online ``update()`` (one call per sample) and the batch :func:`run` (a compiled loop
+over a whole trace calling the same :func:`step`): the two paths cannot drift apart. Compiled with numba when it is
+installed (``@njit(cache=True)``); without numba the same code runs as plain Python (same results, ~100x slower).
+
+Robust by construction (issue 12): every input passes a finiteness and magnitude check before it can touch the
+state; ``dt`` that is NaN, zero or negative leaves the state untouched (a repeated or out-of-order time stamp);
+``dt`` above ``C[GAP_S]`` (including +inf and 1e300) is a data gap: the signal filters restart, the speed state
+re-initialises from the next valid speed, the slope variance is raised to its prior (the train may have moved)
+and nothing is integrated over the gap, so no loop depends on ``dt``. Covariances go through the shared
+Joseph-form update and the 2x2 PD repair of :mod:`estimators.filters`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from uuom_core.vehicle import G_MPS2
+
+from . import filters
+from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-exported)
+    GAP_S, DT_NOM, RADIUS, M_ROT, M_REF, M_RIGID, C_MIN, C_MAX, MU0, MU_MAX, CUT_HZ, FAST_HZ, CHAIN_L, SWAY_DAMP,
+    SWAY_H, MIN_SPEED, MIN_FORCE, SETTLE_S, T_MAX, T_RATE, T_BAND, V_MAX, V_RATE, V_BAND, F_MAX, F_RATE, F_BAND,
+    RELOCK, GATES, R0, R_MIN, R_MAX, FADING, ADAPT_R, ACC_VAR, MODEL_ACC_VAR, GRADE_VAR_M, P0_TH, GATE2, MAX_SLOPE,
+    USE_ACCEL, HIST_DS, N_HIST, R_M, DELTA, SIGMA, MASS_FORGET, P0_C, P0_CD, P0_D, EST_MU, MAX_SPREAD, READY_VAR,
+    Q_C, C0, MIN_ACC, OFF_FORGET, FUSED, P0_B, BIAS_VAR, CORR_N, N_C, V, TH, P11, P12, P22, R, K, BK, F_IN, F_OK,
+    REJ,
+    FORCE_IN, GT_LAST, GT_REJ, GV_LAST, GV_REJ, GF_LAST, GF_REJ, LF1, LF2, LF_OK, LV1, LV2, LV_OK, LQ1, LQ2, LQ_OK,
+    LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
+    ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
+    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, N_S, N_HIST_MAX,
+)
+from .fused_kernel import fused_mass_step as _fused_mass_step
+
+try:  # numba is a dependency (pyproject.toml); the fallback keeps the package importable without it
+    from numba import njit
+except ImportError:  # pragma: no cover
+    def njit(*args, **kwargs):  # type: ignore[no-redef]
+        if args and callable(args[0]):
+            return args[0]
+        return lambda f: f
+
+HAVE_NUMBA = njit.__module__.startswith("numba")
+
+_kf_update = njit(cache=True, inline="always")(filters.kalman_update_2x2_h1)
+_repair = njit(cache=True, inline="always")(filters.repair_pd_2x2)
+
+
+@njit(cache=True, inline="always")
+def _lp(S, i, x, a):
+    """Two cascaded first-order low-passes at S[i], S[i+1]; S[i+2] = ready. NaN holds the last output."""
+    if x != x:
+        return S[i + 1]
+    if S[i + 2] == 0.0:
+        S[i] = x
+        S[i + 1] = x
+        S[i + 2] = 1.0
+        return x
+    y1 = S[i] + a * (x - S[i])
+    S[i] = y1
+    y2 = S[i + 1] + a * (y1 - S[i + 1])
+    S[i + 1] = y2
+    return y2
+
+
+@njit(cache=True, inline="always")
+def _gate(S, i, x, dt, xmax, rate, band, relock, use_rate):
+    """NaN for a non-finite value, |x| > xmax, or (``use_rate``) a jump faster than physics allows."""
+    if not (abs(x) <= xmax):
+        return math.nan
+    if use_rate:
+        last = S[i]
+        if last == last and abs(x - last) > rate * dt * (S[i + 1] + 1.0) + band:
+            S[i + 1] += 1.0
+            if S[i + 1] <= relock:
+                return math.nan
+        S[i + 1] = 0.0
+    S[i] = x
+    return x
+
+
+@njit(cache=True)
+def reset(S, H, C):
+    S[:] = 0.0
+    S[V] = math.nan
+    S[P11] = C[R0]
+    S[P22] = C[P0_TH]
+    S[R] = C[R0]
+    S[BK] = 1.0
+    S[GT_LAST] = math.nan
+    S[GV_LAST] = math.nan
+    S[GF_LAST] = math.nan
+    S[PREV_VF] = math.nan
+    S[PREV_VQ] = math.nan
+    c0 = C[C0]
+    S[MC] = c0
+    S[MD] = C[MU0] * c0
+    S[PC] = C[P0_C]
+    S[PCD] = C[P0_CD]
+    S[PD] = C[P0_D]
+    S[RES_VAR] = C[R_M]
+    S[LAMBDA] = 1.0
+    S[MB] = 0.5 * c0  # fused: beta = c alpha, alpha = 0.5 (weight of the slope under the sensors) a priori
+    S[PB] = C[P0_B]
+    H[:] = 0.0
+
+
+@njit(cache=True)
+def _restart_signals(S, H):
+    """After a data gap: the filters' held states no longer describe the motion."""
+    for i in (LF_OK, LV_OK, LQ_OK, LA_OK, LS_OK, LC_OK, LL_OK):
+        S[i] = 0.0
+    S[PREV_VF] = math.nan
+    S[PREV_VQ] = math.nan
+    S[SWAY] = 0.0
+    S[SWAY_RATE] = 0.0
+    S[T_VALID] = 0.0
+    S[GT_LAST] = math.nan
+    S[GV_LAST] = math.nan
+    S[GF_LAST] = math.nan
+    S[F_OK] = 0.0
+    S[V] = math.nan
+    S[MOVED] = 0.0
+    S[HSUM] = 0.0
+
+
+@njit(cache=True)
+def step(S, H, C, torque, speed, accel, dt):
+    """Process one sample. Returns nothing; the estimate is read from ``S`` (:func:`estimate`)."""
+    if not (dt > 0.0):  # NaN, 0, negative: a repeated or out-of-order stamp; nothing to integrate
+        return
+    if dt > C[GAP_S]:  # a gap (inf, 1e300 included): restart, then treat the sample as the first after it
+        _restart_signals(S, H)
+        S[P22] = max(S[P22], C[P0_TH])
+        S[N_GAPS] += 1.0
+        dt = C[DT_NOM]
+    g = G_MPS2
+    use_rate = C[GATES] != 0.0
+    relock = C[RELOCK]
+    T = _gate(S, GT_LAST, torque, dt, C[T_MAX], C[T_RATE], C[T_BAND], relock, use_rate)
+    z = _gate(S, GV_LAST, speed, dt, C[V_MAX], C[V_RATE], C[V_BAND], relock, use_rate)
+    f = _gate(S, GF_LAST, accel, dt, C[F_MAX], C[F_RATE], C[F_BAND], relock, use_rate)
+
+    # ---------------- slope layer: adaptive EKF on [v, theta_sensor] --------------------------------------------
+    v = S[V]
+    if v != v:
+        if z == z:
+            S[V] = z
+    else:
+        th = S[TH]
+        sn = math.sin(th)
+        cs = math.cos(th)
+        c_m = S[MC]
+        if C[USE_ACCEL] != 0.0 and S[F_OK] != 0.0:
+            # kinematics: the accelerometer measures f = dv/dt + g sin(theta); no mass, torque or mu needed
+            acc = S[F_IN] - g * sn
+            f12 = -dt * g * cs
+            q11 = C[ACC_VAR] * dt * dt
+            moving = True
+        else:
+            # the paper's model (eq. 24) with the mass layer's M and mu: what is left without an accelerometer
+            m = c_m * C[M_REF]
+            mu = S[MD] / c_m
+            g_over = g / (1.0 + C[M_ROT] / m)
+            acc = S[FORCE_IN] / (m + C[M_ROT]) - g_over * (sn + mu * cs)
+            moving = v > 0.02 or acc > 0.0  # held by static friction / brakes at standstill
+            f12 = -dt * g_over * (cs - mu * sn) if moving else 0.0
+            q11 = C[MODEL_ACC_VAR] * dt * dt
+        if moving:
+            S[V] = v + dt * acc
+        p11, p12, p22 = S[P11], S[P12], S[P22]
+        # the grade is a function of position: it drifts with the distance travelled, not with time
+        q22 = C[GRADE_VAR_M] * abs(v) * dt
+        p11 = p11 + 2.0 * f12 * p12 + f12 * f12 * p22 + q11
+        p12 = p12 + f12 * p22
+        p22 = min(p22 + q22, C[P0_TH])
+        if z == z:
+            eps = z - S[V]
+            s_inn = p11 + S[R]
+            if use_rate and eps * eps > C[GATE2] * s_inn and S[REJ] < relock:
+                S[REJ] += 1.0
+            elif S[REJ] >= relock and use_rate:
+                # persistently "outlying": the state was wrong, restart the speed there
+                S[REJ] = 0.0
+                S[V] = z
+                p11 = max(p11, S[R])
+            else:
+                S[REJ] = 0.0
+                if C[ADAPT_R] != 0.0:
+                    # Sage-Husa estimate of R (weights from k = 1: d_1 ~ 0.5 keeps the prior); the unbiased form
+                    # eps^2 - H P- H^T falls back to the biased one when not positive, then bounded
+                    S[K] += 1.0
+                    S[BK] *= C[FADING]
+                    d = (1.0 - C[FADING]) / (1.0 - S[BK] * C[FADING])
+                    r_new = (1.0 - d) * S[R] + d * (eps * eps - p11)
+                    if r_new <= C[R_MIN]:
+                        r_new = (1.0 - d) * S[R] + d * eps * eps
+                    S[R] = min(max(r_new, C[R_MIN]), C[R_MAX])
+                dv, dth, p11, p12, p22 = _kf_update(p11, p12, p22, eps, S[R])
+                S[V] += dv
+                th_new = S[TH] + dth
+                ms = C[MAX_SLOPE]
+                S[TH] = ms if th_new > ms else (-ms if th_new < -ms else th_new)
+        p11, p12, p22 = _repair(p11, p12, p22, 1e-14, 1e-14)
+        S[P11], S[P12], S[P22] = p11, p12, p22
+    if f == f:
+        S[F_IN] = f
+        S[F_OK] = 1.0
+    else:
+        S[F_OK] = 0.0
+    if T == T:
+        S[FORCE_IN] = T / C[RADIUS]
+
+    # ---------------- slope under the whole train: history of theta along the distance travelled ---------------
+    th = S[TH]
+    n_hist = int(C[N_HIST])
+    if n_hist > 0:
+        v = S[V]
+        if v == v and v > 0.0:
+            S[DIST] += v * dt
+        if S[MOVED] == 0.0:
+            # not moved yet: the track behind is unknown, take the slope the train stands on, until the slope
+            # layer has settled and the train has moved one history step (a start-up transient of theta must not
+            # be frozen into the history for a whole train length)
+            for j in range(n_hist):
+                H[j] = th
+            S[HSUM] = n_hist * th
+            S[HEAD] = 0.0
+            S[NEXT_S] = S[DIST] + C[HIST_DS]
+            if S[DIST] > C[HIST_DS] and S[P22] < C[READY_VAR]:
+                S[MOVED] = 1.0
+                S[DIST0] = S[DIST]
+        n_push = 0
+        while S[DIST] >= S[NEXT_S] and n_push < n_hist:  # bounded: a huge step refills the buffer at most once
+            hd = int(S[HEAD])
+            S[HSUM] += th - H[hd]
+            H[hd] = th
+            S[HEAD] = float((hd + 1) % n_hist)
+            S[NEXT_S] += C[HIST_DS]
+            n_push += 1
+        if S[DIST] >= S[NEXT_S]:
+            S[NEXT_S] = S[DIST] + C[HIST_DS]
+        if n_push > 0 and S[HEAD] == 0.0:  # re-sum once per buffer turn: no drift of the running sum
+            acc_sum = 0.0
+            for j in range(n_hist):
+                acc_sum += H[j]
+            S[HSUM] = acc_sum
+        oldest = H[int(S[HEAD])]
+        S[SPREAD] = abs(th - oldest)
+        S[TH_WIN] = (th + S[HSUM]) / (n_hist + 1)
+    else:
+        S[TH_WIN] = th
+        S[SPREAD] = 0.0
+    if C[FUSED] != 0.0:
+        # fused: the slope gravity acts on is a blend of the slope under the sensors and the window behind them,
+        # with the weight alpha = beta / c learned from the force balance (1 for a point mass)
+        al = min(max(S[MB] / S[MC], 0.0), 1.0)
+        S[TH_TRAIN] = al * th + (1.0 - al) * S[TH_WIN]
+    else:
+        S[TH_TRAIN] = S[TH_WIN]
+
+    # ---------------- regression front end: F = T/r, v, dv/dt, the swinging load --------------------------------
+    a = 1.0 - math.exp(-2.0 * math.pi * C[CUT_HZ] * dt)
+    if T == T and z == z and S[T_MISSING] > 0.1:
+        # first good sample after a dropout: restart the signal filters at it; a held input jumping to the new
+        # value would read as an acceleration and kick the load pendulum, which then rings for tens of seconds
+        for i in (LF_OK, LV_OK, LQ_OK, LA_OK, LS_OK, LC_OK, LL_OK):
+            S[i] = 0.0
+        S[PREV_VF] = math.nan
+        S[PREV_VQ] = math.nan
+        S[SWAY] = 0.0
+        S[SWAY_RATE] = 0.0
+    F = _lp(S, LF1, T / C[RADIUS] if T == T else math.nan, a)
+    vf = _lp(S, LV1, z, a)
+    if S[LV_OK] == 0.0:  # no valid speed yet
+        return
+    prev = S[PREV_VF]
+    S[PREV_VF] = vf
+    acc_f = (vf - prev) / dt if prev == prev else 0.0
+    S[ACC_F] = acc_f
+    if C[FUSED] != 0.0:
+        sin_lp = _lp(S, LS1, math.sin(S[TH_WIN]), a)
+        sin_loc_lp = _lp(S, LL1, math.sin(S[TH]), a)
+        cos_lp = 1.0
+    else:
+        th_train = S[TH_TRAIN]
+        sin_lp = _lp(S, LS1, math.sin(th_train), a)
+        cos_lp = _lp(S, LC1, math.cos(th_train), a)
+        sin_loc_lp = sin_lp
+    if C[CHAIN_L] > 0.0:
+        # the load hangs on chains: a pendulum forced by the train's acceleration (semi-implicit Euler; dt is at
+        # most GAP_S here, so the sub-step count is bounded)
+        af = 1.0 - math.exp(-2.0 * math.pi * C[FAST_HZ] * dt)
+        vq = _lp(S, LQ1, z, af)
+        pq = S[PREV_VQ]
+        S[PREV_VQ] = vq
+        a_fast = (vq - pq) / dt if pq == pq else 0.0
+        L = C[CHAIN_L]
+        sw, sr = S[SWAY], S[SWAY_RATE]
+        a_load = -g * sw - C[SWAY_DAMP] * sr
+        n_sub = 1 if dt <= C[SWAY_H] else int(math.ceil(dt / C[SWAY_H]))
+        h = dt / n_sub
+        for _ in range(n_sub):
+            sr += h * (-g * sw - C[SWAY_DAMP] * sr - a_fast) / L
+            sw += h * sr
+        S[SWAY], S[SWAY_RATE] = sw, sr
+        a_load_f = _lp(S, LA1, a_load, a)
+    else:
+        a_load_f = acc_f
+    S[A_LOAD] = a_load_f
+    raw_ok = T == T and z == z
+    if raw_ok:
+        S[T_VALID] += dt
+        S[T_MISSING] = 0.0
+    else:
+        S[T_MISSING] += dt
+        if S[T_MISSING] > 0.1:
+            S[T_VALID] = 0.0
+    valid = (raw_ok and S[LF_OK] != 0.0 and S[T_VALID] > C[SETTLE_S] and vf > C[MIN_SPEED] and F > C[MIN_FORCE]
+             and S[P22] < C[READY_VAR] and (S[SPREAD] < C[MAX_SPREAD] or C[FUSED] != 0.0))
+    if not valid:
+        return
+    y = (F - C[M_ROT] * acc_f - C[M_RIGID] * (acc_f - a_load_f)) / C[M_REF]
+    if C[FUSED] != 0.0:
+        # the blend is learned only once the window holds slopes measured on the way (not the start-up guess)
+        learn_b = S[MOVED] != 0.0 and S[DIST] - S[DIST0] > C[N_HIST] * C[HIST_DS]
+        _fused_mass_step(S, C, y, a_load_f, sin_lp, sin_loc_lp, use_rate, learn_b)
+        return
+
+    # ---------------- mass layer: DFFRLS on the specific-force regression ----------------------------------------
+    #   (F - m_rot a - M_rigid (a - a_load)) / M_ref = [a_load + g sin th_train, g cos th_train] . [c, d]
+    h1 = a_load_f + g * sin_lp
+    h2 = g * cos_lp if C[OFF_FORGET] == 0.0 else g
+    c, dd = S[MC], S[MD]
+    pc, pcd, pd = S[PC] + C[Q_C], S[PCD], S[PD]
+    if C[EST_MU] == 0.0:
+        # mu fixed at the vehicle file's value: one parameter, d = mu0 c
+        h1 = h1 + C[MU0] * h2
+        h2 = 0.0
+    e = y - h1 * c - h2 * dd
+    lam = C[DELTA] + (1.0 - C[DELTA]) * math.exp(-C[SIGMA] * abs(e))
+    lam_m = 1.0 - C[MASS_FORGET] * (1.0 - lam)
+    if C[OFF_FORGET] > 0.0:
+        # offset mode: d is the train's resistance-and-slope offset, forgotten faster than the mass (vector
+        # forgetting), each variance bounded by its prior (no wind-up)
+        lam_d = 1.0 - C[OFF_FORGET] * (1.0 - lam)
+        if pc / lam_m >= C[P0_C]:
+            lam_m = 1.0
+        if pd / lam_d >= C[P0_D]:
+            lam_d = 1.0
+        pc /= lam_m
+        pd /= lam_d
+        pcd /= math.sqrt(lam_m * lam_d)
+    # forgetting in covariance form, never above the prior variance (no wind-up)
+    elif pc / lam_m < C[P0_C] and pd / lam_m < C[P0_D]:
+        pc /= lam_m
+        pcd /= lam_m
+        pd /= lam_m
+    ph1 = pc * h1 + pcd * h2
+    ph2 = pcd * h1 + pd * h2
+    s_m = C[R_M] + h1 * ph1 + h2 * ph2
+    if use_rate and e * e > 100.0 * s_m:  # a gross outlier that passed the input gates
+        return
+    k2 = ph2 / s_m
+    if abs(a_load_f) < C[MIN_ACC]:
+        # no acceleration: the mass is only a considered parameter (Schmidt update, zero gain, its variance kept);
+        # at constant speed a slope error of the upper layer would otherwise be read as mass
+        dd += k2 * e
+        pcd -= k2 * ph1
+        pd -= k2 * ph2
+    else:
+        k1 = ph1 / s_m
+        c += k1 * e
+        dd += k2 * e
+        pc -= k1 * ph1
+        pcd -= k1 * ph2
+        pd -= k2 * ph2
+    pc, pcd, pd = _repair(pc, pcd, pd, 1e-14, 1e-16)
+    S[PC], S[PCD], S[PD] = pc, pcd, pd
+    c = min(max(c, C[C_MIN]), C[C_MAX])
+    S[MC] = c
+    if C[EST_MU] == 0.0:
+        S[MD] = C[MU0] * c
+    elif C[OFF_FORGET] > 0.0:  # the offset also holds the slope error of the upper layer: either sign
+        S[MD] = min(max(dd, -C[MU_MAX] * c), C[MU_MAX] * c)
+    else:
+        S[MD] = min(max(dd, 0.0), C[MU_MAX] * c)
+    S[RES_VAR] += 0.002 * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
+    S[LAMBDA] = lam
+    S[N_MASS] += 1.0
+
+
+@njit(cache=True)
+def estimate(S, C, out):
+    """Write (mass, slope, mass_std, slope_std, mu, mu_std, alpha) into ``out`` (alpha: fused only, else 0)."""
+    c = S[MC]
+    # the regression counts every 5 ms sample as independent, but its low-passed signals are correlated over
+    # ~CORR_N samples: the parameter variance is that much too small
+    infl = max(1.0, S[RES_VAR] / C[R_M]) * C[CORR_N]
+    out[0] = c * C[M_REF]
+    out[1] = S[TH_TRAIN]
+    out[2] = math.sqrt(min(S[PC] * infl, C[P0_C])) * C[M_REF]  # never above the prior
+    var_th = S[P22]
+    if C[FUSED] != 0.0:
+        # + the accelerometer bias (not separable from the resistance, so never learned) + the blend weight
+        d_th = S[TH] - S[TH_WIN]
+        var_th += C[BIAS_VAR] / (G_MPS2 * G_MPS2) + S[PB] / (c * c) * d_th * d_th
+    out[3] = math.sqrt(var_th)
+    mu = S[MD] / c
+    out[4] = mu
+    var_mu = (S[PD] - 2.0 * mu * S[PCD] + mu * mu * S[PC]) / (c * c)
+    out[5] = math.sqrt(max(var_mu * infl, 0.0))
+    out[6] = min(max(S[MB] / c, 0.0), 1.0) if C[FUSED] != 0.0 else 0.0
+
+
+@njit(cache=True)
+def run(S, H, C, torque, speed, accel, dts, out):
+    """The batch path: :func:`step` + :func:`estimate` over whole arrays; ``out`` has shape (n, 7)."""
+    row = np.empty(7)
+    for i in range(torque.shape[0]):
+        step(S, H, C, torque[i], speed[i], accel[i], dts[i])
+        estimate(S, C, row)
+        for j in range(7):
+            out[i, j] = row[j]

@@ -1,0 +1,102 @@
+"""The fused observer's regression step (``fused``, :mod:`estimators.fused`), compiled with the rest of the kernel
+(:mod:`estimators.dffrls_aekf_kernel`, which calls it in place of the two-parameter ``dffrls-aekf`` step)."""
+
+from __future__ import annotations
+
+import math
+
+from uuom_core.vehicle import G_MPS2
+
+from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MB, MC, MD, MIN_ACC, MU_MAX,
+                                 N_MASS, OFF_FORGET, P0_B, P0_C, P0_D, PB, PC, PCB, PCD, PD, PDB, Q_C, R_M, RES_VAR,
+                                 SIGMA)
+
+try:
+    from numba import njit
+except ImportError:  # pragma: no cover
+    def njit(*args, **kwargs):  # type: ignore[no-redef]
+        if args and callable(args[0]):
+            return args[0]
+        return lambda f: f
+
+__all__ = ["fused_mass_step"]
+
+
+@njit(cache=True)
+def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
+    """Fused observer's regression on three parameters ``[c, o, beta]`` (c = M/M_ref, o = resistance-and-bias
+    offset, beta = c alpha, alpha = weight of the slope under the sensors in the slope gravity acts on)::
+
+        y = c (a_load + g sin th_win) + o g + beta g (sin th_loc - sin th_win)
+
+    Vector forgetting (c and beta: constants of a run; o: the dynamic lambda), c only from accelerations (Schmidt
+    update otherwise), covariance bounded by the prior and repaired to symmetric PD."""
+    g = G_MPS2
+    h1 = a_l + g * sin_win
+    h2 = g
+    h3 = g * (sin_loc - sin_win)
+    c, o, b = S[MC], S[MD], S[MB]
+    p11, p12, p22 = S[PC] + C[Q_C], S[PCD], S[PD]
+    p13, p23, p33 = S[PCB], S[PDB], S[PB] + C[Q_C]
+    e = y - h1 * c - h2 * o - h3 * b
+    lam = C[DELTA] + (1.0 - C[DELTA]) * math.exp(-C[SIGMA] * abs(e))
+    lm = 1.0 - C[MASS_FORGET] * (1.0 - lam)
+    ld = 1.0 - C[OFF_FORGET] * (1.0 - lam)
+    lb = lm
+    if p11 / lm >= C[P0_C]:
+        lm = 1.0
+    if p22 / ld >= C[P0_D]:
+        ld = 1.0
+    if p33 / lb >= C[P0_B]:
+        lb = 1.0
+    p11 /= lm
+    p22 /= ld
+    p33 /= lb
+    p12 /= math.sqrt(lm * ld)
+    p13 /= math.sqrt(lm * lb)
+    p23 /= math.sqrt(ld * lb)
+    q1 = p11 * h1 + p12 * h2 + p13 * h3
+    q2 = p12 * h1 + p22 * h2 + p23 * h3
+    q3 = p13 * h1 + p23 * h2 + p33 * h3
+    s_m = C[R_M] + h1 * q1 + h2 * q2 + h3 * q3
+    if use_rate and e * e > 100.0 * s_m:
+        return
+    consider = abs(a_l) < C[MIN_ACC]
+    if not consider:
+        c += q1 / s_m * e
+        p11 -= q1 * q1 / s_m
+    o += q2 / s_m * e
+    p12 -= q1 * q2 / s_m
+    p13 -= q1 * q3 / s_m
+    p22 -= q2 * q2 / s_m
+    p23 -= q2 * q3 / s_m
+    if learn_b and consider:
+        # beta only at steady speed (grade changes are its information), c only from accelerations: a residual
+        # of the start or stop dynamics must not be read as a gravity blend; else beta is a considered parameter
+        # too (zero gain, variance kept)
+        b += q3 / s_m * e
+        p33 -= q3 * q3 / s_m
+    # PD repair: floors on the diagonal, then shrink the correlations until every leading minor is positive
+    p11 = p11 if p11 >= 1e-14 else 1e-14
+    p22 = p22 if p22 >= 1e-16 else 1e-16
+    p33 = p33 if p33 >= 1e-14 else 1e-14
+    if not (abs(p12) < math.inf and abs(p13) < math.inf and abs(p23) < math.inf):
+        p12 = p13 = p23 = 0.0
+    for _ in range(60):
+        m2 = p11 * p22 - p12 * p12
+        det = p11 * (p22 * p33 - p23 * p23) - p12 * (p12 * p33 - p23 * p13) + p13 * (p12 * p23 - p22 * p13)
+        if m2 > 1e-6 * p11 * p22 and det > 1e-9 * p11 * p22 * p33:
+            break
+        p12 *= 0.7
+        p13 *= 0.7
+        p23 *= 0.7
+    S[PC], S[PCD], S[PD], S[PCB], S[PDB], S[PB] = p11, p12, p22, p13, p23, p33
+    c = min(max(c, C[C_MIN]), C[C_MAX])
+    S[MC] = c
+    S[MD] = min(max(o, -C[MU_MAX] * c), C[MU_MAX] * c)
+    S[MB] = min(max(b, -0.2 * c), 1.2 * c)
+    S[RES_VAR] += 0.002 * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
+    S[LAMBDA] = lam
+    S[N_MASS] += 1.0
+
+

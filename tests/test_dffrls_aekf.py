@@ -1,0 +1,181 @@
+"""``dffrls-aekf`` (the project's two-layer estimator, compiled kernel) and ``dffrls-aekf-paper`` (paper 000 as
+printed): registry, the compiled path against the pure-Python reference, online against batch, faulty data, and
+loose accuracy bounds on seeded runs of both simulators (accuracy, not timings)."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import estimators
+from estimators import dffrls_aekf_kernel as kern
+from uuom_core.synthetic import synthetic_trace
+from uuom_core.trace import Trace
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _series_array(s) -> np.ndarray:
+    return np.c_[s.mass_kg, s.slope_rad, s.mass_std_kg, s.slope_std_rad, s.extras["mu"], s.extras["mu_std"]]
+
+
+@pytest.fixture(scope="module")
+def faulty() -> Trace:
+    """40 s synthetic run with dropouts, spikes, out-of-order and repeated stamps, a 3 s gap and huge values."""
+    tr = synthetic_trace("section1", seed=5, mass_kg=30_000.0, duration_s=40.0)
+    rng = np.random.default_rng(5)
+    cols = {k: v.copy() for k, v in tr.columns.items()}
+    n = len(tr)
+    for k in ("torque_nm", "speed_mps", "accel_mps2"):
+        cols[k][rng.random(n) < 0.05] = np.nan
+        cols[k][rng.random(n) < 0.002] = rng.choice([np.inf, -np.inf, 1e300, -1e300])
+    t = cols["t_s"]
+    t[3000] = t[2999]  # repeated stamp
+    t[4000] = t[3990]  # out of order
+    t[5000:] += 3.0  # a 3 s gap
+    return Trace(cols, source="faulty")
+
+
+def test_registered_and_selectable() -> None:
+    names = estimators.available()
+    assert "dffrls-aekf" in names and "dffrls-aekf-paper" in names
+    assert type(estimators.make("dffrls-aekf")).__name__ == "DFFRLSAEKF"
+    assert type(estimators.make("dffrls-aekf-paper")).__name__ == "DFFRLSAEKFPaper"
+    with pytest.raises(TypeError, match="no_such_option"):
+        estimators.make("dffrls-aekf", no_such_option=1)
+    with pytest.raises(ValueError, match="delta"):
+        estimators.make("dffrls-aekf", delta=1.5)
+    with pytest.raises(ValueError, match="fading"):
+        estimators.make("dffrls-aekf-paper", fading=1.0)
+
+
+@pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])
+def test_online_update_equals_batch_run(name: str, faulty: Trace) -> None:
+    est = estimators.make(name)
+    batch = _series_array(est.run(faulty))
+    est.reset()
+    t = faulty["t_s"]
+    dts = np.diff(t, prepend=t[0] - (t[1] - t[0]))
+    rows = []
+    for i in range(len(t)):
+        e = est.update(faulty["torque_nm"][i], faulty["speed_mps"][i], faulty["accel_mps2"][i], dts[i])
+        rows.append((e.mass_kg, e.slope_rad, e.mass_std_kg, e.slope_std_rad, e.extras["mu"], e.extras["mu_std"]))
+    np.testing.assert_array_equal(np.array(rows), batch)
+
+
+@pytest.mark.skipif(not kern.HAVE_NUMBA, reason="the reference comparison needs the compiled kernel")
+@pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])
+def test_compiled_kernel_matches_the_pure_python_reference(name: str, faulty: Trace, tmp_path) -> None:
+    """The same kernel source run by the Python interpreter (``NUMBA_DISABLE_JIT=1``) is the reference."""
+    compiled = _series_array(estimators.make(name).run(faulty))
+    short = 6000  # the interpreter runs the kernel ~100x slower
+    path = tmp_path / "ref.npy"
+    code = (
+        "import sys, numpy as np; sys.path.insert(0, %r)\n"
+        "import estimators\n"
+        "from uuom_core.trace import Trace\n"
+        "d = np.load(%r)\n"
+        "tr = Trace({k: d[k] for k in d.files})\n"
+        "s = estimators.make(%r).run(tr)\n"
+        "np.save(%r, np.c_[s.mass_kg, s.slope_rad, s.mass_std_kg, s.slope_std_rad,\n"
+        "                  s.extras['mu'], s.extras['mu_std']])\n"
+    ) % (ROOT, str(tmp_path / "in.npz"), name, str(path))
+    np.savez(tmp_path / "in.npz", **{k: v[:short] for k, v in faulty.columns.items()})
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    subprocess.run([sys.executable, "-c", code], check=True, env=env, cwd=ROOT, timeout=600)
+    reference = np.load(path)
+    np.testing.assert_allclose(compiled[:short], reference, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["dffrls-aekf", "dffrls-aekf-paper", "fused"])
+def test_faulty_data_never_gives_nan(name: str, faulty: Trace) -> None:
+    est = estimators.make(name)
+    s = est.run(faulty)
+    for col in (s.mass_kg, s.slope_rad, s.mass_std_kg, s.slope_std_rad):
+        assert np.all(np.isfinite(col))
+    assert np.all(s.mass_std_kg >= 0) and np.all(s.slope_std_rad > 0)
+    v = est.vehicle
+    assert np.all((s.mass_kg >= v.empty_mass_kg) & (s.mass_kg <= v.max_mass_kg))
+
+
+@pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])
+def test_covariances_stay_spd_per_sample(name: str, faulty: Trace) -> None:
+    est = estimators.make(name)
+    t = faulty["t_s"]
+    dts = np.diff(t, prepend=t[0] - 0.005)
+    for i in range(0, len(t)):
+        est.update(faulty["torque_nm"][i], faulty["speed_mps"][i], faulty["accel_mps2"][i], dts[i])
+        if i % 7 == 0:
+            for P in (est.slope_P, est.mass_P, est.regression_P):
+                assert np.all(np.isfinite(P)) and P[0, 1] == P[1, 0]
+                assert np.linalg.eigvalsh(P).min() > 0.0
+
+
+@pytest.mark.parametrize("name", ["dffrls-aekf", "dffrls-aekf-paper", "fused"])
+def test_huge_dt_and_stamps_do_not_hang_or_break(name: str) -> None:
+    est = estimators.make(name)
+    for dt in (0.005, 1e300, math.inf, math.nan, -1.0, 0.0, 0.005, 50.0):
+        e = est.update(3000.0, 0.5, 0.05, dt)
+        assert math.isfinite(e.mass_kg) and math.isfinite(e.slope_rad)
+
+
+@pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])
+def test_recovers_after_a_fault_burst(name: str) -> None:
+    """Clean accuracy comes back within 10 s after 10 s of garbage on every channel (issue 10 item 4)."""
+    tr = synthetic_trace("section1", seed=9, mass_kg=26_000.0, duration_s=80.0)
+    clean = estimators.make(name, train_length_m=0.0).run(tr)
+    cols = {k: v.copy() for k, v in tr.columns.items()}
+    rng = np.random.default_rng(9)
+    burst = (tr["t_s"] > 20.0) & (tr["t_s"] < 30.0)
+    for k in ("torque_nm", "speed_mps", "accel_mps2"):
+        cols[k][burst] = rng.choice([np.nan, np.inf, -1e300, 1e6], burst.sum())
+    hit = estimators.make(name, train_length_m=0.0).run(Trace(cols))
+    late = tr["t_s"] > 40.0
+    slope_err = np.degrees(np.abs(hit.slope_rad[late] - clean.slope_rad[late]))
+    assert slope_err.max() < 0.3
+    assert np.max(np.abs(hit.mass_kg[late] / clean.mass_kg[late] - 1.0)) < 0.05
+
+
+def _errors(tr: Trace, s) -> tuple[float, float]:
+    k = tr["t_s"] >= tr["t_s"][0] + 10.0
+    m = tr["mass_kg"][k]
+    ref = tr.columns.get("effective_slope_deg", tr["slope_deg"])[k]
+    return (float(np.max(np.abs(s.mass_kg[k] - m) / m)) * 100.0,
+            float(np.sqrt(np.mean((s.slope_deg[k] - ref) ** 2))))
+
+
+@pytest.mark.slow
+def test_accuracy_on_the_plant_section1() -> None:
+    from uuom_gym.sim.recording import simulate_run
+
+    tr = simulate_run("section1", seed=1)
+    mass, slope = _errors(tr, estimators.make("dffrls-aekf").run(tr))
+    paper_mass, paper_slope = _errors(tr, estimators.make("dffrls-aekf-paper").run(tr))
+    # measured (seed 1): 2.8 % / 0.27 deg for dffrls-aekf; the paper as printed sits at the mass clamp, 11 deg
+    assert mass < 6.0 and slope < 0.6
+    assert paper_slope > 3.0 * slope
+
+
+@pytest.mark.slow
+def test_accuracy_on_the_point_mass_world() -> None:
+    from uuom_gym.sim.point_mass import simulate_point_mass
+
+    tr = simulate_point_mass("pm-section1", seed=1)
+    mass, slope = _errors(tr, estimators.make("dffrls-aekf").run(tr))
+    assert mass < 15.0 and slope < 1.5
+
+
+def test_paper_variant_as_printed_settles_its_noise_mean_against_the_slope() -> None:
+    """The printed Sage-Husa estimates the speed-noise mean q̂_v, which is collinear with the slope: on a level run
+    with the true mass fixed, the means-off filter stays near level and the as-printed one does not."""
+    tr = synthetic_trace("level", seed=2, mass_kg=26_000.0, duration_s=40.0)
+    k = tr["t_s"] > 10.0
+    printed = estimators.make("dffrls-aekf-paper").run(tr)
+    no_means = estimators.make("dffrls-aekf-paper", adapt_means=False).run(tr)
+    assert np.all(np.isfinite(printed.slope_rad)) and np.all(np.isfinite(no_means.slope_rad))
+    assert np.mean(np.abs(printed.slope_deg[k])) > np.mean(np.abs(no_means.slope_deg[k]))

@@ -1,0 +1,69 @@
+"""``fused`` (issue 10 item 1): the learned gravity blend makes one observer good on both simulators, the pymunk
+plant (an 18 m train, gravity spread behind the sensors) and the point-mass world (gravity at one point). Loose
+accuracy bounds on a few seeded runs, not timings. Kernel robustness and the compiled-vs-reference check are in
+``tests/test_dffrls_aekf.py`` (parametrised over ``fused``)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import estimators
+
+
+def _errors(tr, s) -> tuple[float, float]:
+    k = tr["t_s"] >= tr["t_s"][0] + 10.0
+    m = tr["mass_kg"][k]
+    ref = tr.columns.get("effective_slope_deg", tr["slope_deg"])[k]
+    return (float(np.max(np.abs(s.mass_kg[k] - m) / m)) * 100.0,
+            float(np.sqrt(np.mean((s.slope_deg[k] - ref) ** 2))))
+
+
+def test_registered_with_its_extras() -> None:
+    est = estimators.make("fused")
+    assert "fused" in estimators.available() and est.config.fused
+    e = est.update(3000.0, 0.5, 0.1, 0.005)
+    assert set(e.extras) == {"mu", "mu_std", "gravity_weight_sensor"}
+    assert 0.0 <= e.extras["gravity_weight_sensor"] <= 1.0
+    with pytest.raises(ValueError, match="fused"):
+        estimators.make("fused", offset_forgetting_ratio=0.0)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scenario", ["pm-section1", "pm-resistance-mismatch"])
+def test_point_mass_world_learns_gravity_at_the_sensors(scenario: str) -> None:
+    from uuom_gym.sim.point_mass import simulate_point_mass
+
+    tr = simulate_point_mass(scenario, seed=2)
+    fused = estimators.make("fused").run(tr)
+    window = estimators.make("dffrls-aekf").run(tr)
+    mass, slope = _errors(tr, fused)
+    # measured: seed 0 8.6 % / 0.07 deg and 1.3 % / 0.07 deg, seed 2 16.8 % on pm-section1 (start-up mass);
+    # the fixed 14 m window of dffrls-aekf: 1.3 deg
+    assert mass < 20.0 and slope < 0.4
+    assert slope < 0.5 * _errors(tr, window)[1]
+    assert fused.extras["gravity_weight_sensor"][-1] > 0.7
+
+
+@pytest.mark.slow
+def test_plant_section1() -> None:
+    from uuom_gym.sim.recording import simulate_run
+
+    tr = simulate_run("section1", seed=2)
+    s = estimators.make("fused").run(tr)
+    mass, slope = _errors(tr, s)
+    assert mass < 6.0 and slope < 1.0
+    assert np.all(np.isfinite(s.slope_std_rad)) and np.all(s.slope_std_rad >= math.radians(0.1))
+
+
+def test_env_and_cli_accept_fused(tmp_path) -> None:
+    gym = pytest.importorskip("gymnasium")
+    import uuom_gym  # noqa: F401  (registers the env)
+
+    env = gym.make("UUOM-Track-v0", observer="fused")
+    env.reset(seed=0)
+    for _ in range(3):
+        env.step(env.action_space.sample())
+    env.close()

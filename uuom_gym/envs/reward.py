@@ -8,7 +8,9 @@ term (key)      per policy step                                                 
 ``time``        ``-w * step duration in s``                                              0.01 per s
 ``energy``      ``-w * traction energy in MJ`` (``sum(max(T * omega, 0) dt)``)           0.2 per MJ
 ``safety``      ``-w * info["cost"]`` (the weighted safety cost)                         1
-``failure``     ``-w`` when the episode ends as a failure (overspeed trip, overrun)      10
+``failure``     ``-w`` when the episode ends as a failure (overspeed trip, overrun,      10
+                rolled back, stopped short, ran off the start)
+``shaping``     ``gamma Phi(s') - Phi(s)``, potential-based (:mod:`.reward_shaping`)    20 per m/s in Phi
 ==============  =====================================================================  =======================
 
 The reward is the sum of the terms; ``info["rewards"]`` holds each one.
@@ -41,8 +43,13 @@ def reward_terms(
     stop_error_m: float,
     stop_tolerance_m: float,
     failed: bool,
+    shaping: float = 0.0,
 ) -> dict[str, float]:
-    """The reward terms of one policy step (already weighted and signed; the reward is their sum)."""
+    """The reward terms of one policy step (already weighted and signed; the reward is their sum).
+
+    ``shaping`` is the step's potential difference from :func:`uuom_gym.envs.reward_shaping.shaping_reward`
+    (already weighted: the weight scales the potential).
+    """
     if track_length_m <= 0:
         raise ValueError(f"track_length_m must be > 0, got {track_length_m!r}")
     arrival = 0.0
@@ -55,6 +62,7 @@ def reward_terms(
         "energy": -weights["energy"] * energy_j * 1e-6,
         "safety": -weights["safety"] * cost,
         "failure": -weights["failure"] if failed else 0.0,
+        "shaping": float(shaping),
     }
     assert tuple(terms) == REWARD_TERMS
     return terms

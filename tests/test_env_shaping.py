@@ -69,7 +69,7 @@ def test_rolling_back_ends_the_episode_as_failure():
         if term:
             break
     assert term and info["termination"] == "rolled_back" and not info["is_success"]
-    assert info["rewards"]["failure"] == -10.0
+    assert info["rewards"]["failure"] == -10.0 and info["rewards"]["idle"] == 0.0
     assert -3.0 < info["position_m"] < -2.0
 
 
@@ -83,6 +83,7 @@ def test_standing_still_short_of_the_station_ends_the_episode():
         if term:
             break
     assert info["termination"] == "stopped_short" and info["rewards"]["failure"] == -10.0
+    assert info["rewards"]["idle"] == -15.0
     assert n == 50  # 5 s at 10 Hz
     dither = UUOMTrackEnv(observer="oracle", track=flat, idle_limit_s=20.0)
     dither.reset(seed=0)

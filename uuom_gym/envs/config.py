@@ -17,7 +17,7 @@ SCENARIOS: tuple[str, ...] = ("section1", "section2", "roadtest")
 RULES: tuple[str, ...] = ("speed_limit", "adhesion", "rollback", "sway", "overspeed_trip", "stall")
 """Safety rules of spec §6, the keys of ``info["violations"]`` and of ``cost_weights``."""
 
-REWARD_TERMS: tuple[str, ...] = ("progress", "arrival", "time", "energy", "safety", "failure", "shaping")
+REWARD_TERMS: tuple[str, ...] = ("progress", "arrival", "time", "energy", "safety", "failure", "idle", "shaping")
 """Reward terms, the keys of ``info["rewards"]``."""
 
 
@@ -81,6 +81,7 @@ def default_config() -> dict[str, Any]:
             "energy": 0.2,
             "safety": 1.0,
             "failure": 10.0,
+            "idle": 15.0,
             "shaping": 20.0,
         },
         "shaping_gamma": 1.0,

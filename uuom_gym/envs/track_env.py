@@ -94,6 +94,7 @@ class UUOMTrackEnv(gym.Env):
     Sum of ``info["rewards"]``: ``progress`` (+10 x fraction of the track covered), ``arrival`` (+10 on
     success, less up to half for the stop error), ``time`` (-0.01 per s), ``energy`` (-0.2 per MJ of traction
     energy), ``safety`` (-1 x ``info["cost"]``), ``failure`` (-10 on every failed ending, see Episode End),
+    ``idle`` (-15 more when stopped short: standing must not beat an attempt that trips),
     ``shaping`` (potential-based, ``Phi(s') - Phi(s)`` with ``Phi = -20 x`` the speed in m/s above a gentle
     braking curve to the station and above 0.05 m/s below the true limit, ``Phi = 0`` at every terminal state,
     so it sums to 0 over an episode; :mod:`uuom_gym.envs.reward_shaping`). Weights: ``reward_weights``,
@@ -137,8 +138,8 @@ class UUOMTrackEnv(gym.Env):
 
     * v0: initial version.
     * v0 (rev. 2, no id change): observation 12 -> 16 entries (``grade_mf``, ``cautious_limit``,
-      ``cautious_margin``, ``stop_margin`` appended; entries 0-11 unchanged); new reward term ``shaping``
-      (potential-based, 0 over every episode); new failed endings ``rolled_back`` and ``stopped_short``
+      ``cautious_margin``, ``stop_margin`` appended; entries 0-11 unchanged); new reward terms ``shaping``
+      (potential-based, 0 over every episode) and ``idle``; new failed endings ``rolled_back`` and ``stopped_short``
       (config ``rollback_trip_m``, ``idle_limit_s``). Reason, measured: plain PPO on rev. 1 spent 7 000-step
       episodes rolling back or standing until the time limit (5 episodes in its first 41 000 steps, rollback
       cost ~10^4 violations per km) and never arrived (docs/rl.md). Policies trained on rev. 1 do not load.
@@ -296,6 +297,7 @@ class UUOMTrackEnv(gym.Env):
             stop_error_m=to_go,
             stop_tolerance_m=tol,
             failed=failed,
+            idle=termination == "stopped_short",
             shaping=shaping_reward(phi_before, phi_after, cfg["shaping_gamma"], terminated),
         )
         reward = float(sum(rewards.values()))

@@ -47,7 +47,7 @@ def default_config() -> dict[str, Any]:
         "stop_speed_mps": 0.05,
         "max_episode_s": None,
         "rollback_trip_m": 2.0,
-        "idle_limit_s": 60.0,
+        "idle_limit_s": 20.0,
         # --- randomisation per reset(seed) ------------------------------------------------------------------
         "load_kg": None,
         "load_fraction_range": (0.0, 1.0),
@@ -119,7 +119,9 @@ CONFIG_DOCS: dict[str, str] = {
     "point it reached (m): the anti-rollback device has caught it; a policy that lets the train roll back on an "
     "up-grade learns it from one clear failure instead of hundreds of seconds of rollback cost.",
     "idle_limit_s": "Terminate as a failure ('stopped_short') when the train has not got 1 m further than its last "
-    "mark for this long (s) without arriving (standing, or dithering back and forth); None disables it.",
+    "mark for this long (s) without arriving (standing, or dithering back and forth); None disables it. Short, "
+    "because PPO's gamma = 0.995 discounts a penalty 60 s (600 steps) ahead to 5 %: with 60 s it did not stop "
+    "the policy from learning to hold the brake at the start (docs/rl.md).",
     "load_kg": "Fixed load (kg) instead of a random one; None draws it from load_fraction_range.",
     "load_fraction_range": "(low, high) load as a fraction of the rated load, drawn uniformly.",
     "running_resistance_range": "(low, high) true running-resistance coefficient mu, drawn uniformly.",

@@ -113,7 +113,7 @@ class UUOMTrackEnv(gym.Env):
     station); overspeed trip (true speed > v_lim + ``overspeed_trip_margin_mps``: the emergency brake drops);
     overrun (more than ``stop_tolerance_m`` past the station); running back off the start (> 20 m behind it);
     rolled back (more than ``rollback_trip_m`` = 2 m behind the furthest point reached); stopped short (not 1 m
-    further along within ``idle_limit_s`` = 60 s, standing or dithering, short of arrival). All but success
+    further along within ``idle_limit_s`` = 20 s, standing or dithering, short of arrival). All but success
     are failures.
     Truncated: simulated time beyond ``max_episode_s`` (default: half the rated-load speed limit over the track
     plus 120 s) and the registry's ``max_episode_steps`` = 30 000.

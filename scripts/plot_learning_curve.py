@@ -35,12 +35,22 @@ def read_scalars(run_dir: Path) -> dict[str, tuple[list[int], list[float]]]:
     if not files:
         raise SystemExit(f"{run_dir}: no TensorBoard event files under {run_dir / 'tb'}")
     merged: dict[str, dict[int, float]] = {}
-    for f in files:  # a resumed run writes a second event file; later steps win
+    segments = []
+    for f in files:
         acc = EventAccumulator(str(f), size_guidance={"scalars": 0})
         acc.Reload()
-        for tag in acc.Tags().get("scalars", []):
-            for ev in acc.Scalars(tag):
-                merged.setdefault(tag, {})[int(ev.step)] = float(ev.value)
+        series = {tag: [(int(ev.step), float(ev.value)) for ev in acc.Scalars(tag)] for tag in acc.Tags().get("scalars", [])}
+        first = min((pts[0][0] for pts in series.values() if pts), default=0)
+        segments.append((first, series))
+    # A resumed run (scripts/train.py restarts from the newest checkpoint) writes a new event file starting at the
+    # checkpoint's step: the interrupted run's points from that step on are superseded.
+    segments.sort(key=lambda seg: seg[0])
+    for i, (first, series) in enumerate(segments):
+        cut = segments[i + 1][0] if i + 1 < len(segments) else None
+        for tag, pts in series.items():
+            for step, val in pts:
+                if cut is None or step < cut:
+                    merged.setdefault(tag, {})[step] = val
     return {t: (sorted(d), [d[s] for s in sorted(d)]) for t, d in merged.items()}
 
 

@@ -8,7 +8,7 @@ Example::
 
 Reads ``<run>/tb/**/events.out.tfevents.*`` and plots, against environment steps: the training-episode success
 rate and overspeed-trip rate (``uuom/``, running mean over the last 50 training episodes, see
-:mod:`agents.callbacks`), the mean episode return (``rollout/ep_rew_mean``) and the training-episode trip time.
+:mod:`agents.callbacks`), the mean episode return (``rollout/ep_rew_mean``) and the simulated duration of the training episodes (``uuom/trip_time_s``: every ending, not only arrivals).
 ``--csv`` writes the same series as rows ``run,tag,step,value``; ``--print`` prints the last value of each tag.
 """
 
@@ -23,7 +23,7 @@ TAGS: tuple[tuple[str, str], ...] = (
     ("uuom/success_rate", "success rate (last 50 training episodes)"),
     ("uuom/overspeed_trip_rate", "overspeed-trip rate (last 50 training episodes)"),
     ("rollout/ep_rew_mean", "episode return (raw, last 100)"),
-    ("uuom/trip_time_s", "trip time of arrived episodes (s)"),
+    ("uuom/trip_time_s", "simulated episode duration (s)"),
 )
 
 

@@ -17,7 +17,7 @@ from uuom_gym.sim.track import SCENARIO_NAMES as SCENARIOS
 RULES: tuple[str, ...] = ("speed_limit", "adhesion", "rollback", "sway", "overspeed_trip", "stall")
 """Safety rules of spec §6, the keys of ``info["violations"]`` and of ``cost_weights``."""
 
-REWARD_TERMS: tuple[str, ...] = ("progress", "arrival", "time", "energy", "safety", "failure")
+REWARD_TERMS: tuple[str, ...] = ("progress", "arrival", "time", "energy", "safety", "failure", "idle", "shaping")
 """Reward terms, the keys of ``info["rewards"]``."""
 
 
@@ -46,6 +46,8 @@ def default_config() -> dict[str, Any]:
         "stop_tolerance_m": 3.0,
         "stop_speed_mps": 0.05,
         "max_episode_s": None,
+        "rollback_trip_m": 2.0,
+        "idle_limit_s": 20.0,
         # --- randomisation per reset(seed) ------------------------------------------------------------------
         "load_kg": None,
         "load_fraction_range": (0.0, 1.0),
@@ -79,7 +81,10 @@ def default_config() -> dict[str, Any]:
             "energy": 0.2,
             "safety": 1.0,
             "failure": 10.0,
+            "idle": 15.0,
+            "shaping": 20.0,
         },
+        "shaping_gamma": 1.0,
         # --- rendering --------------------------------------------------------------------------------------
         "render_fps": 30,
         "render_size": (800, 450),
@@ -110,6 +115,13 @@ CONFIG_DOCS: dict[str, str] = {
     "max_episode_s": "Simulated-time limit (truncation); None = 2 x length / (rated-load speed limit, 0.5 m/s) "
     "+ 120 s, "
     "so a train that keeps half the most conservative limit still arrives.",
+    "rollback_trip_m": "Terminate as a failure ('rolled_back') once the train is this far behind the furthest "
+    "point it reached (m): the anti-rollback device has caught it; a policy that lets the train roll back on an "
+    "up-grade learns it from one clear failure instead of hundreds of seconds of rollback cost.",
+    "idle_limit_s": "Terminate as a failure ('stopped_short') when the train has not got 1 m further than its last "
+    "mark for this long (s) without arriving (standing, or dithering back and forth); None disables it. Short, "
+    "because PPO's gamma = 0.995 discounts a penalty 60 s (600 steps) ahead to 5 %: with 60 s it did not stop "
+    "the policy from learning to hold the brake at the start (docs/rl.md).",
     "load_kg": "Fixed load (kg) instead of a random one; None draws it from load_fraction_range.",
     "load_fraction_range": "(low, high) load as a fraction of the rated load, drawn uniformly.",
     "running_resistance_range": "(low, high) true running-resistance coefficient mu, drawn uniformly.",
@@ -128,7 +140,12 @@ CONFIG_DOCS: dict[str, str] = {
     "sway_limit_deg": "Load sway (rule 4): swing angle beyond this is a breach (deg).",
     "stall_speed_mps": "Stall (rule 6): slower than this on a grade the load cannot climb is a breach (m/s).",
     "cost_weights": "Weights of each rule's cost term in info['cost'] (see the cost table).",
-    "reward_weights": "Weights of each reward term (see the reward table).",
+    "reward_weights": "Weights of each reward term (see the reward table); 'shaping' scales the potential of "
+    "uuom_gym.envs.reward_shaping (0 switches shaping off).",
+    "shaping_gamma": "Discount in the potential-based shaping term gamma*Phi(s') - Phi(s). 1 (default): the "
+    "shaping sums to exactly 0 over every episode (returns comparable with the unshaped reward); for an agent "
+    "discounting with gamma < 1 it then adds (1 - gamma) Phi(s') <= 0 per step, a small extra penalty near the "
+    "limit. Set it to the agent's gamma for strict policy invariance (Ng et al. 1999).",
     "render_fps": "Frames per second of render_mode='human' (and metadata['render_fps'] for videos).",
     "render_size": "(width, height) of rendered frames in pixels.",
     "render_window_m": "Length of track shown around the train in the side view (m).",
@@ -251,6 +268,10 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
     _check_number(cfg, "stop_speed_mps", 0.0, 1.0, open_lo=True)
     if cfg["max_episode_s"] is not None:
         _check_number(cfg, "max_episode_s", 0.0, 1e6, open_lo=True)
+    _check_number(cfg, "rollback_trip_m", 0.0, 1e6, open_lo=True)
+    if cfg["idle_limit_s"] is not None:
+        _check_number(cfg, "idle_limit_s", 0.0, 1e6, open_lo=True)
+    _check_number(cfg, "shaping_gamma", 0.0, 1.0)
     if cfg["load_kg"] is not None:
         _check_number(cfg, "load_kg", 0.0, 1e6)
     _check_range(cfg, "load_fraction_range", 0.0, 1.2)

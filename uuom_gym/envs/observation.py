@@ -29,7 +29,18 @@ idx  name                     value                                             
 9    ``distance_to_go``       (station position - odometry position) / track length               [-0.5, 1.5]
 10   ``distance_to_go_near``  (station position - odometry position) / 30 m (fine, near stop)     [-1, 1]
 11   ``wheel_slip``           (motor speed * nominal radius - measured speed) / 0.5 m/s           [-4, 4]
+12   ``grade_mf``             model-free grade asin((f - dv/dt) / g), low-passed / max grade      [-2, 2]
+13   ``cautious_limit``       v_lim(M + 2 sigma_M, min(slope - 2 sigma, grade_mf)) / v_max       [0, 1.5]
+14   ``cautious_margin``      (measured speed - cautious limit) / v_max                           [-2, 2]
+15   ``stop_margin``          (measured speed - sqrt(2 * 0.3 m/s^2 * distance to go)) / v_max     [-2, 2]
 ===  =======================  ==================================================================  ============
+
+Entries 12-15 (added in v0 rev. 2, see the env's Version History) are functions of the entries above and of the
+previous step's speed, given explicitly because a memoryless policy cannot form them: ``grade_mf`` needs dv/dt
+(two steps of speed); the estimators' slope can be confidently wrong by 5-12 deg while braking (docs/agents.md),
+the model-free grade needs no force model. ``cautious_limit`` is the limit at the pessimistic corner of the
+estimate (mass std floored at 2 % of the mass, as the shield does); ``stop_margin`` is the speed above a gentle
+braking curve to the station (position from odometry).
 
 ``v_max`` is the empty-train speed limit (2 m/s). Position comes from odometry (integrated measured speed) reset
 to the true position at track-side position markers (every ``POSITION_MARKER_SPACING_M``) as in mines with RFID
@@ -47,7 +58,7 @@ import numpy as np
 from gymnasium import spaces
 
 from uuom_core.limits import speed_limit_mps
-from uuom_core.vehicle import VehicleParams
+from uuom_core.vehicle import G_MPS2, VehicleParams
 
 POSITION_MARKER_SPACING_M = 25.0
 """Spacing of the track-side position markers that reset the odometry (m)."""
@@ -65,14 +76,24 @@ OBS_NAMES: tuple[str, ...] = (
     "distance_to_go",
     "distance_to_go_near",
     "wheel_slip",
+    "grade_mf",
+    "cautious_limit",
+    "cautious_margin",
+    "stop_margin",
 )
-OBS_LOW = np.array([-2, -4, -1, -0.5, 0, -2, 0, 0, -2, -0.5, -1, -4], dtype=np.float32)
-OBS_HIGH = np.array([2, 4, 1, 1.5, 2, 2, 2, 1.5, 2, 1.5, 1, 4], dtype=np.float32)
+OBS_LOW = np.array([-2, -4, -1, -0.5, 0, -2, 0, 0, -2, -0.5, -1, -4, -2, 0, -2, -2], dtype=np.float32)
+OBS_HIGH = np.array([2, 4, 1, 1.5, 2, 2, 2, 1.5, 2, 1.5, 1, 4, 2, 1.5, 2, 2], dtype=np.float32)
 _LOW_LIST = [float(x) for x in OBS_LOW]
 _HIGH_LIST = [float(x) for x in OBS_HIGH]
 ACCEL_SCALE_MPS2 = 2.5
 NEAR_SCALE_M = 30.0
 SLIP_SCALE_MPS = 0.5
+STOP_MARGIN_DECEL_MPS2 = 0.3
+"""Deceleration of the braking curve in ``stop_margin``."""
+GRADE_MF_SMOOTHING = 0.3
+"""Weight of a new sample in the model-free grade's exponential average (per policy step)."""
+MASS_STD_FLOOR_FRAC = 0.02
+"""``cautious_limit`` never believes a mass std below this fraction of the estimate (as agents.shield)."""
 
 SENSOR_KEYS: tuple[str, ...] = (
     "torque_nm",
@@ -230,6 +251,8 @@ class ObservationBuilder:
         self.speed_mps = 0.0
         self.accel_mps2 = 0.0
         self.slip_mps = 0.0
+        self.grade_mf_rad: float | None = None
+        self._prev_speed_mps: float | None = None
 
     def absorb(self, measured: Mapping[str, np.ndarray], dt_s: float, true_position_m: float) -> None:
         """Take in one policy step of measured samples (NaN = dropout) and the true position (for markers)."""
@@ -263,6 +286,12 @@ class ObservationBuilder:
             good = a[np.isfinite(a)]
             if good.size:
                 self.accel_mps2 = float(good.mean())
+        if self._prev_speed_mps is not None and v.shape[0] > 0:
+            dvdt = (self.speed_mps - self._prev_speed_mps) / (dt_s * v.shape[0])
+            sample = math.asin(min(max((self.accel_mps2 - dvdt) / G_MPS2, -1.0), 1.0))
+            g = self.grade_mf_rad
+            self.grade_mf_rad = sample if g is None else g + GRADE_MF_SMOOTHING * (sample - g)
+        self._prev_speed_mps = self.speed_mps
         marker = math.floor(true_position_m / POSITION_MARKER_SPACING_M)
         if marker != self._marker:
             self._marker = marker
@@ -277,13 +306,21 @@ class ObservationBuilder:
         slope_std_rad: float,
         est_speed_limit_mps: float,
         slip_ratio: float | None = None,
+        prior_limit_mps: float | None = None,
     ) -> np.ndarray:
         """The observation vector (float32, clipped to the bounds; NaN would become 0).
 
         ``slip_ratio`` replaces entry 11 (the sensors' apparent slip velocity) by an estimated slip ratio.
+        ``prior_limit_mps`` (the ``none`` observer's worst-case limit) replaces the cautious limit.
         """
         vh = self.vehicle
         to_go = self.station_m - self.odometry_m
+        cautious = (
+            prior_limit_mps
+            if prior_limit_mps is not None
+            else self.cautious_limit_mps(mass_kg, slope_rad, mass_std_kg, slope_std_rad)
+        )
+        stop_curve = math.sqrt(2.0 * STOP_MARGIN_DECEL_MPS2 * max(to_go, 0.0))
         raw = (
             self.speed_mps / self.v_max,
             self.accel_mps2 / ACCEL_SCALE_MPS2,
@@ -297,10 +334,25 @@ class ObservationBuilder:
             to_go / self.track_length_m,
             to_go / NEAR_SCALE_M,
             self.slip_mps / SLIP_SCALE_MPS if slip_ratio is None else slip_ratio,
+            (self.grade_mf_rad or 0.0) / self.grade_scale,
+            cautious / self.v_max,
+            (self.speed_mps - cautious) / self.v_max,
+            (self.speed_mps - stop_curve) / self.v_max,
         )
-        # Python-level clipping: on 12 numbers it is several times faster than three numpy calls.
+        # Python-level clipping: on 16 numbers it is several times faster than three numpy calls.
         out = [min(max(x, lo), hi) if x == x else 0.0 for x, lo, hi in zip(raw, _LOW_LIST, _HIGH_LIST)]
         return np.array(out, dtype=np.float32)
+
+    def cautious_limit_mps(self, mass_kg: float, slope_rad: float, mass_std_kg: float, slope_std_rad: float) -> float:
+        """``v_lim`` at the pessimistic corner: mass + 2 sigma (floored), slope - 2 sigma bounded by the
+        model-free grade."""
+        vh = self.vehicle
+        std = max(mass_std_kg, MASS_STD_FLOOR_FRAC * mass_kg)
+        mass = min(max(mass_kg + 2.0 * std, 1.0), 10.0 * vh.max_mass_kg)
+        slope = slope_rad - 2.0 * slope_std_rad
+        if self.grade_mf_rad is not None:
+            slope = min(slope, self.grade_mf_rad)
+        return speed_limit_mps(vh, mass, min(max(slope, -1.2), 1.2))
 
 
 def _forward_fill(x: np.ndarray, first: float) -> np.ndarray:

@@ -23,9 +23,14 @@ from uuom_gym.envs.observation import (
     worst_case_speed_limit_mps,
 )
 from uuom_gym.envs.reward import reward_terms, traction_energy_j
+from uuom_gym.envs.reward_shaping import potential, shaping_reward
 from uuom_gym.envs.safety import SafetyMonitor, SafetyParams
 from uuom_core.limits import speed_limit_mps
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
+
+
+IDLE_ADVANCE_M = 1.0
+"""``stopped_short``: the train must get this much further than its last mark within ``idle_limit_s``."""
 
 
 class ResetNeeded(gym.error.ResetNeeded, RuntimeError):
@@ -61,7 +66,7 @@ class UUOMTrackEnv(gym.Env):
 
     ## Observation Space
 
-    ``Box(float32, shape (12,))``, normalised, finite bounds:
+    ``Box(float32, shape (16,))``, normalised, finite bounds:
 
     | Num | Observation           | Value                                                        | Min  | Max |
     |-----|-----------------------|--------------------------------------------------------------|------|-----|
@@ -77,17 +82,27 @@ class UUOMTrackEnv(gym.Env):
     | 9   | distance_to_go        | (station - odometry position) / track length                  | -0.5 | 1.5 |
     | 10  | distance_to_go_near   | (station - odometry position) / 30 m                          | -1   | 1   |
     | 11  | wheel_slip            | (motor speed x nominal radius - measured speed) / 0.5 m/s     | -4   | 4   |
+    | 12  | grade_mf              | model-free grade asin((f - dv/dt)/g), low-passed / 15 deg     | -2   | 2   |
+    | 13  | cautious_limit        | v_lim(M + 2 sigma_M, min(slope - 2 sigma, grade_mf)) / 2 m/s  | 0    | 1.5 |
+    | 14  | cautious_margin       | (measured speed - cautious limit) / 2 m/s                     | -2   | 2   |
+    | 15  | stop_margin           | (measured speed - sqrt(2 x 0.3 m/s^2 x distance to go)) / 2   | -2   | 2   |
 
     Position is odometry (integrated encoder speed) reset at track-side markers every 25 m. There is no grade
     preview: roadways have no surveyed grade map. With ``observer="oracle"`` entries 3-7 are the truth (std 0);
     with ``observer="none"`` they hold the prior and the worst-case limit (rated load, steepest down-grade).
+    Entries 12-15 are functions of the others and of the previous step's speed, which a memoryless policy
+    cannot form (see :mod:`uuom_gym.envs.observation`).
 
     ## Rewards
 
     Sum of ``info["rewards"]``: ``progress`` (+10 x fraction of the track covered), ``arrival`` (+10 on
     success, less up to half for the stop error), ``time`` (-0.01 per s), ``energy`` (-0.2 per MJ of traction
-    energy), ``safety`` (-1 x ``info["cost"]``), ``failure`` (-10 on overspeed trip or overrun). Weights:
-    ``reward_weights``.
+    energy), ``safety`` (-1 x ``info["cost"]``), ``failure`` (-10 on every failed ending, see Episode End),
+    ``idle`` (-15 more when stopped short: standing must not beat an attempt that trips),
+    ``shaping`` (potential-based, ``Phi(s') - Phi(s)`` with ``Phi = -20 x`` the speed in m/s above a gentle
+    braking curve to the station and above 0.05 m/s below the true limit, ``Phi = 0`` at every terminal state,
+    so it sums to 0 over an episode; :mod:`uuom_gym.envs.reward_shaping`). Weights: ``reward_weights``,
+    ``shaping_gamma``.
 
     ## Starting State
 
@@ -100,7 +115,10 @@ class UUOMTrackEnv(gym.Env):
 
     Terminated: success (standing still, ``|v| < stop_speed_mps``, within ``stop_tolerance_m`` of the far
     station); overspeed trip (true speed > v_lim + ``overspeed_trip_margin_mps``: the emergency brake drops);
-    overrun (more than ``stop_tolerance_m`` past the station); running back off the start (> 20 m behind it).
+    overrun (more than ``stop_tolerance_m`` past the station); running back off the start (> 20 m behind it);
+    rolled back (more than ``rollback_trip_m`` = 2 m behind the furthest point reached); stopped short (not 1 m
+    further along within ``idle_limit_s`` = 20 s, standing or dithering, short of arrival). All but success
+    are failures.
     Truncated: simulated time beyond ``max_episode_s`` (default: half the rated-load speed limit over the track
     plus 120 s) and the registry's ``max_episode_steps`` = 30 000.
 
@@ -123,6 +141,12 @@ class UUOMTrackEnv(gym.Env):
     ## Version History
 
     * v0: initial version.
+    * v0 (rev. 2, no id change): observation 12 -> 16 entries (``grade_mf``, ``cautious_limit``,
+      ``cautious_margin``, ``stop_margin`` appended; entries 0-11 unchanged); new reward terms ``shaping``
+      (potential-based, 0 over every episode) and ``idle``; new failed endings ``rolled_back`` and ``stopped_short``
+      (config ``rollback_trip_m``, ``idle_limit_s``). Reason, measured: plain PPO on rev. 1 spent 7 000-step
+      episodes rolling back or standing until the time limit (5 episodes in its first 41 000 steps, rollback
+      cost ~10^4 violations per km) and never arrived (docs/rl.md). Policies trained on rev. 1 do not load.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
@@ -190,6 +214,9 @@ class UUOMTrackEnv(gym.Env):
         self.sway_rad = st["sway_rad"]
         self.true_slope_rad = float(self.track.slope_at(self.position_m))
         self.last_command = 0.0
+        self._furthest_m = self.position_m
+        self._advance_mark_m = self.position_m
+        self._advance_t_s = 0.0
         self.episode_cost = 0.0
         self.episode_energy_j = 0.0
         self.violation_counts = {r: 0 for r in self.safety.params.cost_weights}
@@ -197,6 +224,7 @@ class UUOMTrackEnv(gym.Env):
         self._estimate = self.observer.observe(empty, self.dt_s, self.true_mass_kg, self.true_slope_rad)
         self._est_limit = self._estimated_limit(self._estimate)
         self.true_limit_mps = float(self.safety.speed_limit(self.true_slope_rad)[0])
+        self._phi = self._potential()
         self._last_violations: tuple[str, ...] = ()
         self._last_cost = 0.0
         self._episode_over = False
@@ -244,6 +272,9 @@ class UUOMTrackEnv(gym.Env):
         to_go = self.station_m - self.position_m
         tol = cfg["stop_tolerance_m"]
         arrived = abs(to_go) <= tol and abs(self.speed_mps) < cfg["stop_speed_mps"]
+        self._furthest_m = max(self._furthest_m, self.position_m)
+        if self.position_m >= self._advance_mark_m + IDLE_ADVANCE_M:
+            self._advance_mark_m, self._advance_t_s = self.position_m, self.t_s
         termination = ""
         if rep.tripped:
             self.plant.emergency_brake()
@@ -254,13 +285,19 @@ class UUOMTrackEnv(gym.Env):
             termination = "overrun"
         elif self.position_m < -20.0:
             termination = "ran_off_start"
-        failed = termination in ("overspeed_trip", "overrun", "ran_off_start")
+        elif self._furthest_m - self.position_m > cfg["rollback_trip_m"]:
+            termination = "rolled_back"
+        elif cfg["idle_limit_s"] is not None and self.t_s - self._advance_t_s >= cfg["idle_limit_s"] - 1e-9:
+            termination = "stopped_short"
+        failed = termination in ("overspeed_trip", "overrun", "ran_off_start", "rolled_back", "stopped_short")
         terminated = termination != ""
         truncated = False
         if not terminated and self.t_s >= self.max_episode_s - 1e-9:
             truncated = True
             termination = "time_limit"
 
+        phi_before, phi_after = self._phi, self._potential()
+        self._phi = phi_after
         rewards = reward_terms(
             cfg["reward_weights"],
             progress_m=self.position_m - s_start,
@@ -272,6 +309,8 @@ class UUOMTrackEnv(gym.Env):
             stop_error_m=to_go,
             stop_tolerance_m=tol,
             failed=failed,
+            idle=termination == "stopped_short",
+            shaping=shaping_reward(phi_before, phi_after, cfg["shaping_gamma"], terminated),
         )
         reward = float(sum(rewards.values()))
         self.episode_cost += rep.cost
@@ -306,10 +345,17 @@ class UUOMTrackEnv(gym.Env):
         slope = min(max(th - 2.0 * ts, -1.2), 1.2)
         return speed_limit_mps(self.vehicle, mass, slope)
 
+    def _potential(self) -> float:
+        return potential(
+            self.config["reward_weights"]["shaping"], self.speed_mps, self.station_m - self.position_m,
+            self.true_limit_mps,
+        )
+
     def _observation(self) -> np.ndarray:
         m, th, ms, ts = self._estimate
         slip = self.observer.extras.get("slip_ratio") if self.config["slip_observation"] == "estimator" else None
-        return self.obs_builder.build(self.last_command, m, th, ms, ts, self._est_limit, slip)
+        prior = self._none_limit if isinstance(self.observer, PriorObserver) else None
+        return self.obs_builder.build(self.last_command, m, th, ms, ts, self._est_limit, slip, prior)
 
     def _info(self, cost, costs, violations, rewards, success, termination) -> dict[str, Any]:
         m, th, ms, ts = self._estimate

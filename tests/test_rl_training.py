@@ -1,0 +1,45 @@
+"""Plain PPO from uuom-train's defaults (bare: no residual, no shield) trains, saves and reloads; the shipped
+policies under results/rl/policies load and drive an episode (no performance asserts: see docs/rl.md)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from agents.evaluation import ModelPolicy, Task, run_episode
+from agents.training import TrainConfig, train
+
+ROOT = Path(__file__).resolve().parents[1]
+POLICIES = ROOT / "results" / "rl" / "policies"
+SHORT = {"track_length_m": [50.0, 60.0]}
+
+
+def test_bare_ppo_smoke_with_default_hyperparameters(tmp_path):
+    # agents/hyperparams/ppo.yml as it is (n_steps 1024 x 2 envs = one 2 048-step rollout and one update)
+    run = train(TrainConfig(algo="ppo", residual=0.0, shield=False, observer="oracle", timesteps=2048, seed=5,
+                            run_dir=tmp_path / "run", eval_freq=0, subproc=False, progress=False,
+                            env_kwargs=dict(SHORT)))
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["residual"] == 0.0 and cfg["shield"] is False
+    policy = ModelPolicy(run)
+    assert not policy.shield and policy.residual == 0.0
+    assert policy.model.num_timesteps >= 2048
+    assert policy.vecnorm is not None and policy.vecnorm.obs_rms.count > 2048  # statistics were collected
+    obs = np.zeros(16, dtype=np.float32)
+    a = policy.act(obs, {})
+    assert a.shape == (1,) and np.all(np.isfinite(a))
+
+
+def test_shipped_policies_load_and_drive_one_episode():
+    runs = sorted(p.parent for p in POLICIES.glob("*/model.zip"))
+    assert runs, f"no shipped policy under {POLICIES}"
+    for run in runs:
+        for f in ("config.json", "vecnormalize.pkl"):
+            assert (run / f).exists(), f"{run.name}: {f} missing"
+        row = run_episode(Task(str(run), "oracle", 100_000, json.dumps(SHORT)))
+        assert row["steps"] > 0 and row["termination"], row
+        for key in ("cost", "trip_time_s", "distance_m"):
+            assert math.isfinite(float(row[key])), (run.name, key, row[key])

@@ -299,14 +299,16 @@ class DFFRLSAEKF(Estimator):
         t = np.ascontiguousarray(trace["t_s"], dtype=np.float64)
         n = len(t)
         dts = np.diff(t, prepend=t[0] - (t[1] - t[0] if n > 1 else 0.005))
-        out = np.empty((n, 7))
+        # Column-major, so each output column is a contiguous view: no copies (10^6 samples: 56 MB, not 112 MB).
+        out = np.empty((7, n)).T
         col = [np.ascontiguousarray(trace[k], dtype=np.float64) for k in ("torque_nm", "speed_mps", "accel_mps2")]
         kern.run(self.S, self.H, self.C, col[0], col[1], col[2], dts, out)
-        extras = {"mu": out[:, 4].copy(), "mu_std": out[:, 5].copy()}
+        del col, dts
+        rows = out.T
+        extras = {"mu": rows[4], "mu_std": rows[5]}
         if self.config.fused:
-            extras["gravity_weight_sensor"] = out[:, 6].copy()
-        return EstimateSeries(t.copy(), out[:, 0].copy(), out[:, 1].copy(), out[:, 2].copy(), out[:, 3].copy(),
-                              extras)
+            extras["gravity_weight_sensor"] = rows[6]
+        return EstimateSeries(t if t is not trace["t_s"] else t.copy(), rows[0], rows[1], rows[2], rows[3], extras)
 
     # views for tests and diagnostics ---------------------------------------------------------------------------
     @property

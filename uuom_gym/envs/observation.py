@@ -1,8 +1,8 @@
 """The observation layer of ``UUOM-Track-v0``: observers (what the agent is told about mass and slope) and the
 normalised observation vector.
 
-Observers
----------
+Observers (defined in :mod:`uuom_gym.envs.observers`)
+-------------------------------------------------
 ``"dffrls-aekf"`` (default) or any name of :func:`estimators.available`
     The estimator runs on **every** sensor sample (physics rate), fed the measured torque, ground speed,
     accelerometer specific force, motor speed, gyro and normal accelerometer, with ``NaN`` for dropouts.
@@ -52,13 +52,24 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Mapping
 
 import numpy as np
 from gymnasium import spaces
 
 from uuom_core.limits import speed_limit_mps
 from uuom_core.vehicle import G_MPS2, VehicleParams
+from uuom_gym.envs.observers import (  # noqa: F401  (re-exported: the observers were defined here before)
+    SENSOR_KEYS,
+    EstimatorObserver,
+    Observer,
+    OracleObserver,
+    PriorObserver,
+    UnknownObserverError,
+    make_observer,
+    worst_case_speed_limit_mps,
+)
+
 
 POSITION_MARKER_SPACING_M = 25.0
 """Spacing of the track-side position markers that reset the odometry (m)."""
@@ -95,139 +106,9 @@ GRADE_MF_SMOOTHING = 0.3
 MASS_STD_FLOOR_FRAC = 0.02
 """``cautious_limit`` never believes a mass std below this fraction of the estimate (as agents.shield)."""
 
-SENSOR_KEYS: tuple[str, ...] = (
-    "torque_nm",
-    "speed_mps",
-    "accel_mps2",
-    "motor_speed_radps",
-    "gyro_radps",
-    "accel_normal_mps2",
-)
-
-
-class UnknownObserverError(ValueError):
-    """An observer name that is neither an estimator nor ``oracle`` / ``none``."""
-
-
 def observation_space() -> spaces.Box:
     """The observation space (float32 Box with the bounds of the module table)."""
     return spaces.Box(low=OBS_LOW.copy(), high=OBS_HIGH.copy(), dtype=np.float32)
-
-
-class Observer:
-    """Base of the observers: turns a policy step's sensor samples into a mass/slope estimate."""
-
-    name = "base"
-
-    def __init__(self, vehicle: VehicleParams) -> None:
-        self.vehicle = vehicle
-        self.extras: dict[str, float] = {}
-        """What the method estimates beyond mass and slope (e.g. ``slip_ratio`` from ``aupf``), finite floats."""
-
-    def reset(self) -> None:
-        """Forget the previous episode."""
-
-    def observe(
-        self, measured: Mapping[str, np.ndarray], dt_s: float, true_mass_kg: float, true_slope_rad: float
-    ) -> tuple[float, float, float, float]:
-        """Process one policy step of samples; return ``(mass_kg, slope_rad, mass_std_kg, slope_std_rad)``."""
-        raise NotImplementedError
-
-
-class OracleObserver(Observer):
-    """The true mass and slope (the upper bound of what an estimator could give)."""
-
-    name = "oracle"
-
-    def observe(self, measured, dt_s, true_mass_kg, true_slope_rad):  # type: ignore[override]
-        return float(true_mass_kg), float(true_slope_rad), 0.0, 0.0
-
-
-class PriorObserver(Observer):
-    """No estimate: the prior (mid-range load, level track) and its spread."""
-
-    name = "none"
-
-    def observe(self, measured, dt_s, true_mass_kg, true_slope_rad):  # type: ignore[override]
-        v = self.vehicle
-        grade = math.radians(v.max_grade_deg)
-        return (
-            v.empty_mass_kg + 0.5 * v.rated_load_kg,
-            0.0,
-            v.rated_load_kg / math.sqrt(12.0),
-            grade / math.sqrt(3.0),
-        )
-
-
-class EstimatorObserver(Observer):
-    """A registered estimator, updated on every sensor sample of the step.
-
-    Parameters
-    ----------
-    vehicle : VehicleParams
-        Passed to the estimator.
-    name : str
-        Registry name (``estimators.available()``).
-    options : mapping
-        Estimator options.
-    """
-
-    def __init__(self, vehicle: VehicleParams, name: str, options: Mapping[str, Any] | None = None) -> None:
-        super().__init__(vehicle)
-        import estimators
-
-        self.name = name
-        self.estimator = estimators.make(name, vehicle, **dict(options or {}))
-        self._last = self.estimator.estimate
-
-    def reset(self) -> None:
-        self.estimator.reset()
-        self._last = self.estimator.estimate
-        self.extras = {}
-
-    def observe(self, measured, dt_s, true_mass_kg, true_slope_rad):  # type: ignore[override]
-        cols = [np.asarray(measured[k], dtype=float).tolist() for k in SENSOR_KEYS]
-        update = self.estimator.update
-        e = self._last
-        for torque, speed, accel, motor, gyro, acc_n in zip(*cols):
-            e = update(torque, speed, accel, dt_s, motor, gyro, acc_n)
-        self._last = e
-        if e.extras:
-            self.extras = {k: float(v) for k, v in e.extras.items() if math.isfinite(v)}
-        return _finite_or(e.mass_kg, self.vehicle.empty_mass_kg + 0.5 * self.vehicle.rated_load_kg), _finite_or(
-            e.slope_rad, 0.0
-        ), _finite_or(abs(e.mass_std_kg), self.vehicle.rated_load_kg), _finite_or(abs(e.slope_std_rad), 1.0)
-
-
-def _finite_or(x: float, fallback: float) -> float:
-    # An estimator that breaks the no-NaN contract must not poison the observation; the fallback is the prior.
-    return float(x) if math.isfinite(x) else float(fallback)
-
-
-def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] | None = None) -> Observer:
-    """The observer called ``name`` (``"oracle"``, ``"none"`` or a registered estimator).
-
-    Raises
-    ------
-    UnknownObserverError
-        If the name is unknown; the message lists every valid name.
-    """
-    if name == "oracle":
-        return OracleObserver(vehicle)
-    if name == "none":
-        return PriorObserver(vehicle)
-    import estimators
-
-    if name not in estimators.available():
-        raise UnknownObserverError(
-            f"unknown observer {name!r}; choose 'oracle', 'none' or an estimator: {', '.join(estimators.available())}"
-        )
-    return EstimatorObserver(vehicle, name, options)
-
-
-def worst_case_speed_limit_mps(vehicle: VehicleParams) -> float:
-    """The limit a train that knows nothing must keep: rated load on the steepest down-grade."""
-    return speed_limit_mps(vehicle, vehicle.rated_mass_kg, -math.radians(vehicle.max_grade_deg))
 
 
 class ObservationBuilder:

@@ -265,7 +265,7 @@ class JointEKF(Estimator):
         if abs(speed_mps) < math.inf:
             eps = speed_mps - x[0]
             S = P[0, 0] + self.R
-            if eps * eps <= self.gate2 * S or self.rejected >= 40:
+            if abs(eps) <= math.sqrt(self.gate2 * S) or self.rejected >= 40:  # no overflow for eps ~ 1e300
                 if self.rejected >= 40:
                     x[0] = speed_mps
                     eps = 0.0

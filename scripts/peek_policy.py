@@ -15,6 +15,7 @@ in docs/rl.md to see what a policy's *mean* action does (the training curves sho
 from __future__ import annotations
 
 import argparse
+import json
 import pickle
 import sys
 from pathlib import Path
@@ -38,6 +39,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=[100_000, 100_001, 100_002])
     ap.add_argument("--observer", default="dffrls-aekf")
     ap.add_argument("--max-steps", type=int, default=3000)
+    ap.add_argument("--env-kwargs", type=json.loads, default={},
+                    help='JSON env config the policy was trained with, e.g. \'{"action_mode": "speed_target"}\'')
     args = ap.parse_args(argv)
     import gymnasium as gym
     import torch
@@ -56,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
             vn = pickle.load(fh)
         vn.training = False
     for seed in args.seeds:
-        env = gym.make("UUOM-Track-v0", observer=args.observer)
+        env = gym.make("UUOM-Track-v0", observer=args.observer, **args.env_kwargs)
         obs, info = env.reset(seed=seed)
         speed, cmd, lim = [], [], []
         for _ in range(args.max_steps):

@@ -39,7 +39,9 @@ def test_shipped_policies_load_and_drive_one_episode():
     for run in runs:
         for f in ("config.json", "vecnormalize.pkl"):
             assert (run / f).exists(), f"{run.name}: {f} missing"
-        row = run_episode(Task(str(run), "oracle", 100_000, json.dumps(SHORT)))
+        # Each policy drives the env it was trained in (e.g. action_mode="speed_target"), on a short track.
+        env_kwargs = {**json.loads((run / "config.json").read_text()).get("env_kwargs", {}), **SHORT}
+        row = run_episode(Task(str(run), "oracle", 100_000, json.dumps(env_kwargs)))
         assert row["steps"] > 0 and row["termination"], row
         for key in ("cost", "trip_time_s", "distance_m"):
             assert math.isfinite(float(row[key])), (run.name, key, row[key])

@@ -48,6 +48,7 @@ def default_config() -> dict[str, Any]:
         "max_episode_s": None,
         "rollback_trip_m": 2.0,
         "idle_limit_s": 20.0,
+        "action_mode": "command",
         # --- randomisation per reset(seed) ------------------------------------------------------------------
         "load_kg": None,
         "load_fraction_range": (0.0, 1.0),
@@ -122,6 +123,9 @@ CONFIG_DOCS: dict[str, str] = {
     "mark for this long (s) without arriving (standing, or dithering back and forth); None disables it. Short, "
     "because PPO's gamma = 0.995 discounts a penalty 60 s (600 steps) ahead to 5 %: with 60 s it did not stop "
     "the policy from learning to hold the brake at the start (docs/rl.md).",
+    "action_mode": "'command' (default: the action is the traction/brake fraction) or 'speed_target' (the action "
+    "a is a target speed (a + 1) / 2 x the cautious limit, observation 13, tracked by a PI controller inside the "
+    "env, uuom_gym.envs.speed_target): its zero drives gently instead of coasting (docs/rl.md).",
     "load_kg": "Fixed load (kg) instead of a random one; None draws it from load_fraction_range.",
     "load_fraction_range": "(low, high) load as a fraction of the rated load, drawn uniformly.",
     "running_resistance_range": "(low, high) true running-resistance coefficient mu, drawn uniformly.",
@@ -272,6 +276,10 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
     if cfg["idle_limit_s"] is not None:
         _check_number(cfg, "idle_limit_s", 0.0, 1e6, open_lo=True)
     _check_number(cfg, "shaping_gamma", 0.0, 1.0)
+    if cfg["action_mode"] not in ("command", "speed_target"):
+        raise ConfigError(
+            f"config key 'action_mode' must be 'command' or 'speed_target', got {cfg['action_mode']!r}"
+        )
     if cfg["load_kg"] is not None:
         _check_number(cfg, "load_kg", 0.0, 1e6)
     _check_range(cfg, "load_fraction_range", 0.0, 1.2)

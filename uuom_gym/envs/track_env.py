@@ -27,6 +27,7 @@ from uuom_gym.envs.observation import (
 from uuom_gym.envs.reward import reward_terms, traction_energy_j
 from uuom_gym.envs.reward_shaping import potential, shaping_reward
 from uuom_gym.envs.safety import SafetyMonitor, SafetyParams
+from uuom_gym.envs.speed_target import SpeedTracker, target_speed_mps
 from uuom_core.limits import speed_limit_mps
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
@@ -139,6 +140,12 @@ class UUOMTrackEnv(gym.Env):
     | physics_hz        | 200             | plant / sensor / estimator rate                           |
     | track_length_m    | (100, 300)      | random track length range                                 |
     | allow_infeasible  | False           | allow grades the load cannot climb                        |
+    | action_mode       | "command"       | "command" (traction/brake fraction) or "speed_target"     |
+
+    ``action_mode="speed_target"`` (opt-in) reads the action as a target speed, ``(a + 1) / 2`` times the cautious
+    limit (observation 13), tracked by a PI controller with a grade feed-forward from the estimates inside the env
+    (:mod:`uuom_gym.envs.speed_target`): the action's zero then drives gently instead of coasting. Observation 2
+    and ``info["command"]`` stay the plant command; ``info["target_speed_mps"]`` is the target.
 
     ## Version History
 
@@ -149,6 +156,8 @@ class UUOMTrackEnv(gym.Env):
       (config ``rollback_trip_m``, ``idle_limit_s``). Reason, measured: plain PPO on rev. 1 spent 7 000-step
       episodes rolling back or standing until the time limit (5 episodes in its first 41 000 steps, rollback
       cost ~10^4 violations per km) and never arrived (docs/rl.md). Policies trained on rev. 1 do not load.
+    * v0 (rev. 3, no id change, default behaviour unchanged): opt-in config ``action_mode="speed_target"``. Reason:
+      bare PPO on rev. 2 held the brake at the start, the action's zero being "coast" (docs/rl.md §3, §6).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
@@ -168,6 +177,11 @@ class UUOMTrackEnv(gym.Env):
         self.dt_s = 1.0 / cfg["physics_hz"]
         self.step_s = self.ticks_per_step * self.dt_s
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        self._tracker = (
+            SpeedTracker(self.vehicle, self.step_s) if cfg["action_mode"] == "speed_target" else None
+        )
+        self._cautious_mps = 0.0
+        self._target_mps: float | None = None
         self.observation_space = observation_space()
         self.observer = make_observer(cfg["observer"], self.vehicle, cfg["observer_options"])
         self.safety = SafetyMonitor(self.vehicle, SafetyParams.from_config(cfg))
@@ -216,6 +230,9 @@ class UUOMTrackEnv(gym.Env):
         self.sway_rad = st["sway_rad"]
         self.true_slope_rad = float(self.track.slope_at(self.position_m))
         self.last_command = 0.0
+        self._target_mps = None
+        if self._tracker is not None:
+            self._tracker.reset()
         self._furthest_m = self.position_m
         self._advance_mark_m = self.position_m
         self._advance_t_s = 0.0
@@ -250,6 +267,8 @@ class UUOMTrackEnv(gym.Env):
 
         command = check_action(action)
         cfg = self.config
+        if self._tracker is not None:
+            command = self._track(command)
         s_start = self.position_m
         log = self.plant.advance(command, self.ticks_per_step)
         tick = pa.log_arrays(log)
@@ -347,6 +366,16 @@ class UUOMTrackEnv(gym.Env):
         slope = min(max(th - 2.0 * ts, -1.2), 1.2)
         return speed_limit_mps(self.vehicle, mass, slope)
 
+    def _track(self, action: float) -> float:
+        """``action_mode="speed_target"``: the plant command that tracks the target speed of ``action``."""
+        m, th, _, _ = self._estimate
+        mf = self.obs_builder.grade_mf_rad
+        if mf is not None and abs(mf - th) > FEEDFORWARD_CROSS_CHECK_RAD:
+            # The estimators' slope can be confidently wrong by 5-12 deg while braking (docs/agents.md).
+            th = mf
+        self._target_mps = target_speed_mps(action, self._cautious_mps)
+        return self._tracker.command(self._target_mps, self.obs_builder.speed_mps, m, th)
+
     def _potential(self) -> float:
         return potential(
             self.config["reward_weights"]["shaping"], self.speed_mps, self.station_m - self.position_m,
@@ -357,7 +386,9 @@ class UUOMTrackEnv(gym.Env):
         m, th, ms, ts = self._estimate
         slip = self.observer.extras.get("slip_ratio") if self.config["slip_observation"] == "estimator" else None
         prior = self._none_limit if isinstance(self.observer, PriorObserver) else None
-        return self.obs_builder.build(self.last_command, m, th, ms, ts, self._est_limit, slip, prior)
+        obs = self.obs_builder.build(self.last_command, m, th, ms, ts, self._est_limit, slip, prior)
+        self._cautious_mps = float(obs[13]) * self.obs_builder.v_max
+        return obs
 
     def _info(self, cost, costs, violations, rewards, success, termination) -> dict[str, Any]:
         m, th, ms, ts = self._estimate
@@ -396,6 +427,7 @@ class UUOMTrackEnv(gym.Env):
             "wheel_wear_m": c.wheel_wear_m,
             "max_climbable_grade_rad": self.safety.climbable_rad,
             "observer": self.observer.name,
+            **({} if self._tracker is None else {"target_speed_mps": self._target_mps}),
         }
 
     # ------------------------------------------------------------------------------------------------------------
@@ -440,6 +472,10 @@ class UUOMTrackEnv(gym.Env):
             self._renderer.close()
             self._renderer = None
         super().close()
+
+
+FEEDFORWARD_CROSS_CHECK_RAD = 0.035
+"""speed_target tracker: use the model-free grade for the feed-forward when it differs more than this (2 deg)."""
 
 
 def _make_vehicle(spec: Any) -> VehicleParams:

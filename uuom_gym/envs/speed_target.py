@@ -1,0 +1,90 @@
+"""Opt-in action parameterisation ``action_mode="speed_target"`` of ``UUOM-Track-v0``.
+
+The default action is a traction/brake command whose zero means "coast": at rest, a Gaussian policy around 0
+does not move the train 1 m in 20 s and PPO never sees progress (docs/rl.md §3, "the start trap"). In this mode
+the action ``a`` in ``[-1, 1]`` is a *target speed*::
+
+    v_target = (a + 1) / 2 * cautious_limit
+
+(``a = -1``: stop; ``a = 0``: half the cautious limit, a gentle drive; ``a = 1``: the cautious limit), and a
+speed tracker inside the env turns it into the plant's command once per policy step. ``cautious_limit`` is
+observation entry 13 (the speed limit at the estimate's pessimistic corner, the rated-load limit before the
+estimator has converged), so the policy's zero drives gently whatever the load. The tracker uses only what the
+agent's observation is built from (measured speed, estimated mass and slope, the model-free grade), never the
+truth; it does not enforce the limit (no shield): a target above the true limit still trips.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from uuom_core.vehicle import VehicleParams
+
+G_MPS2 = 9.80665
+
+ACTION_MODES: tuple[str, ...] = ("command", "speed_target")
+"""Values of the config key ``action_mode``."""
+
+
+def target_speed_mps(action: float, cautious_limit_mps: float) -> float:
+    """Target speed for an action in ``[-1, 1]``: ``(a + 1) / 2 * cautious_limit`` (clipped to ``[0, limit]``)."""
+    a = min(max(float(action), -1.0), 1.0)
+    return 0.5 * (a + 1.0) * max(float(cautious_limit_mps), 0.0)
+
+
+@dataclass
+class SpeedTracker:
+    """PI speed tracker with a grade/resistance feed-forward, run at the policy rate.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        Force limits, running resistance and rotating mass.
+    step_s : float
+        Policy step (s): the command is held this long.
+    gain_per_s : float
+        Force per m/s of speed error, as ``gain * (M + m_rot)`` (1/s).
+    integral_gain_per_s2 : float
+        Integral gain (1/s^2); the integral is clamped to ``integral_clamp_m`` (anti-windup).
+    """
+
+    vehicle: VehicleParams
+    step_s: float
+    gain_per_s: float = 3.0
+    integral_gain_per_s2: float = 0.5
+    integral_clamp_m: float = 0.3
+    integral_m: float = 0.0
+
+    def reset(self) -> None:
+        """Forget the integral (each episode starts at rest)."""
+        self.integral_m = 0.0
+
+    def command(self, target_mps: float, speed_mps: float, mass_kg: float, slope_rad: float) -> float:
+        """Plant command in ``[-1, 1]`` that drives the measured speed toward ``target_mps``.
+
+        ``mass_kg`` and ``slope_rad`` are the estimates used for the feed-forward (mass clamped to the
+        vehicle's empty..max range). Positive force maps to a fraction of the traction available at this
+        speed (torque and power limits), negative to a fraction of the service brake.
+        """
+        v = self.vehicle
+        m = min(max(float(mass_kg), v.empty_mass_kg), v.max_mass_kg)
+        th = min(max(float(slope_rad), -1.2), 1.2)
+        err = float(target_mps) - float(speed_mps)
+        self.integral_m = min(max(self.integral_m + err * self.step_s, -self.integral_clamp_m), self.integral_clamp_m)
+        inertia = m + v.rotating_mass_kg
+        force = m * G_MPS2 * (math.sin(th) + v.running_resistance * math.cos(th)) + inertia * (
+            self.gain_per_s * err + self.integral_gain_per_s2 * self.integral_m
+        )
+        if target_mps <= 0.0 and speed_mps <= 0.05:
+            # Stop requested and (nearly) reached: hold with the brake instead of creeping on the integral.
+            return -1.0
+        if force >= 0.0:
+            available = min(v.max_traction_n, v.motor_power_w / max(abs(float(speed_mps)), 0.05))
+            cmd = force / available
+        else:
+            cmd = force / v.service_brake_n
+        return min(max(cmd, -1.0), 1.0)
+
+
+__all__ = ["ACTION_MODES", "SpeedTracker", "target_speed_mps"]

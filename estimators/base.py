@@ -66,6 +66,14 @@ class EstimateSeries:
         return np.degrees(self.slope_std_rad)
 
 
+def first_step_dts(t_s: np.ndarray, t_prev_s: float | None = None) -> np.ndarray:
+    """Per-sample time steps of a trace: ``t[i] - t[i-1]``, the first from ``t_prev_s`` or else equal to the second."""
+    n = len(t_s)
+    if t_prev_s is None:
+        t_prev_s = t_s[0] - (t_s[1] - t_s[0] if n > 1 else 0.005)
+    return np.diff(t_s, prepend=t_prev_s)
+
+
 _OUTPUT_FIELD = {"mass": "mass", "slope": "slope", "slip": "slip_ratio", "radius": "drive_radius_m"}
 
 
@@ -93,11 +101,15 @@ class Estimator(ABC):
         :attr:`Estimate.slope_rad` / ``slope_std_rad``; any other name is a key of :attr:`Estimate.extras`, whose
         standard deviation, when the method gives one, is under ``NAME + "_std"``. A quantity not listed is a prior
         placeholder, not an estimate (e.g. the mass ``imu-ukf`` reports), and must not be presented as a result.
+    inputs : tuple of str
+        Optional trace columns the method reads besides the required ones (``uuom-estimate`` reads only these:
+        less memory on long logs).
     """
 
     name: ClassVar[str] = "base"
     provides: ClassVar[frozenset[str]] = frozenset()
     outputs: ClassVar[tuple[str, ...]] = ("mass", "slope")
+    inputs: ClassVar[tuple[str, ...]] = ("motor_speed_radps", "gyro_radps", "accel_normal_mps2")
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -131,8 +143,19 @@ class Estimator(ABC):
     def estimate(self) -> Estimate:
         """The current estimate without processing a sample."""
 
-    def run(self, trace: Trace, reset: bool = True) -> EstimateSeries:
-        """Run the estimator over a whole trace, sample by sample, exactly as online."""
+    def run(self, trace: Trace, reset: bool = True, *, t_prev_s: float | None = None) -> EstimateSeries:
+        """Run the estimator over a whole trace, sample by sample, exactly as online.
+
+        Parameters
+        ----------
+        trace : Trace
+        reset : bool
+            Start from the prior. ``False`` continues from the current state: a long log can be run block by block
+            (``uuom-estimate`` does) with the same result as in one piece.
+        t_prev_s : float, optional
+            Time of the sample before the trace's first one (the previous block's last), so that the first step's
+            ``dt`` is the true one; without it the first ``dt`` is taken equal to the second.
+        """
         if reset:
             self.reset()
         n = len(trace)
@@ -145,7 +168,7 @@ class Estimator(ABC):
         motor = nan if motor is None else motor
         gyro = nan if gyro is None else gyro
         acc_n = nan if acc_n is None else acc_n
-        dts = np.diff(t, prepend=t[0] - (t[1] - t[0] if n > 1 else 0.005))
+        dts = first_step_dts(t, t_prev_s)
         out_m = np.empty(n)
         out_s = np.empty(n)
         out_ms = np.empty(n)
@@ -169,4 +192,4 @@ class Estimator(ABC):
         return EstimateSeries(t.copy(), out_m, out_s, out_ms, out_ss, extras)
 
 
-__all__ = ["Estimate", "EstimateSeries", "Estimator"]
+__all__ = ["Estimate", "EstimateSeries", "Estimator", "first_step_dts"]

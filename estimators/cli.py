@@ -23,17 +23,19 @@ import re
 import signal
 import sys
 import warnings
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
 from uuom_core.atomic_write import OutputPathError, check_output_path, remove_stale_temps
-from uuom_core.trace import Trace, TraceFormatError, TraceWarning, read_trace_csv, write_csv_atomic
+from uuom_core.trace import TRUTH_COLUMNS as _TRUTH_COLUMNS
+from uuom_core.trace import Trace, TraceBlocks, TraceFormatError, TraceWarning, csv_writer_atomic
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleFileError, VehicleParams
 
 from .base import EstimateSeries
-from .metrics import error_after_settling, settled_mask
+from .metrics import ErrorAccumulator
 from .registry import UnknownEstimatorError, available, get_class
 
 __all__ = ["main", "summarize", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "output_columns"]
@@ -43,8 +45,9 @@ EXIT_INTERRUPTED = 130
 """128 + SIGINT, what a shell reports for Ctrl-C (SIGTERM gives 143)."""
 PROG = "uuom-estimate"
 
-_INPUT_COLUMNS = ("motor_speed_radps", "gyro_radps", "accel_normal_mps2", "mass_kg", "slope_deg")
-"""Optional trace columns the estimators or the summary use (others are not read: less memory)."""
+ESTIMATE_FORMAT = "%.9g"
+"""Estimates are written with 9 significant digits (a mass to 0.1 g, a slope to 1e-7 deg: far below any estimator's
+uncertainty), twice as fast to format as the exact shortest form; ``t_s`` is written exactly as read."""
 
 _NEEDS: dict[str, tuple[str, ...]] = {
     "imu-ukf": ("gyro_radps", "accel_normal_mps2"),
@@ -122,6 +125,47 @@ def _load_vehicle(path: str | None) -> VehicleParams:
         raise _CliError(f"{p}:1: cannot read vehicle file: {exc}") from None
 
 
+class _Summary:
+    """The error summary accumulated block by block (see :func:`summarize`)."""
+
+    def __init__(self, settle_s: float, provides: frozenset[str] | set[str], columns: Sequence[str]) -> None:
+        self.settle_s = settle_s
+        self.samples = 0
+        self.after = 0
+        self._t_start: float | None = None
+        self.mass = ("mass_kg" in columns and "mass" in provides)
+        self.slope = ("slope_deg" in columns and "slope" in provides)
+        self._kg = ErrorAccumulator(settle_s)
+        self._pct = ErrorAccumulator(settle_s, relative=True)
+        self._deg = ErrorAccumulator(settle_s)
+
+    def add(self, part: Trace, mass_kg: np.ndarray, slope_deg: np.ndarray) -> None:
+        t = part["t_s"]
+        if self._t_start is None:
+            self._t_start = float(t[0]) + self.settle_s
+        self.samples += len(t)
+        self.after += int(np.count_nonzero(t >= self._t_start))
+        if self.mass:
+            self._kg.add(t, mass_kg, part["mass_kg"])
+            self._pct.add(t, mass_kg, part["mass_kg"])
+        if self.slope:
+            self._deg.add(t, slope_deg, part["slope_deg"])
+
+    def result(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"samples": self.samples, "settle_s": float(self.settle_s),
+                               "samples_after_settle": self.after}
+        if self.mass:
+            kg, pct = self._kg.result(), self._pct.result()
+            out["mass"] = None if kg is None or pct is None else {
+                "rmse_kg": kg.rmse, "max_abs_error_kg": kg.max_abs, "rmse_pct": pct.rmse,
+                "max_abs_error_pct": pct.max_abs, "samples": kg.samples}
+        if self.slope:
+            deg = self._deg.result()
+            out["slope"] = None if deg is None else {
+                "rmse_deg": deg.rmse, "max_abs_error_deg": deg.max_abs, "samples": deg.samples}
+        return out
+
+
 def summarize(trace: Trace, series: EstimateSeries, settle_s: float = 10.0,
               provides: frozenset[str] | set[str] = frozenset({"mass", "slope"})) -> dict[str, Any]:
     """Error summary after ``settle_s`` seconds from the start of the trace, for the truth columns present.
@@ -129,21 +173,9 @@ def summarize(trace: Trace, series: EstimateSeries, settle_s: float = 10.0,
     Only quantities in ``provides`` (what the estimator estimates) are scored. Samples where the truth is missing
     (empty cell) are left out (:func:`estimators.metrics.error_after_settling`). Returns a JSON-ready dict.
     """
-    t = trace["t_s"]
-    after = settled_mask(t, settle_s)
-    out: dict[str, Any] = {"samples": int(len(trace)), "settle_s": float(settle_s),
-                           "samples_after_settle": int(np.count_nonzero(after))}
-    if "mass_kg" in trace and "mass" in provides:
-        kg = error_after_settling(t, series.mass_kg, trace["mass_kg"], settle_s)
-        pct = error_after_settling(t, series.mass_kg, trace["mass_kg"], settle_s, relative=True)
-        out["mass"] = None if kg is None or pct is None else {
-            "rmse_kg": kg.rmse, "max_abs_error_kg": kg.max_abs, "rmse_pct": pct.rmse,
-            "max_abs_error_pct": pct.max_abs, "samples": kg.samples}
-    if "slope_deg" in trace and "slope" in provides:
-        deg = error_after_settling(t, series.slope_deg, trace["slope_deg"], settle_s)
-        out["slope"] = None if deg is None else {
-            "rmse_deg": deg.rmse, "max_abs_error_deg": deg.max_abs, "samples": deg.samples}
-    return out
+    summary = _Summary(settle_s, provides, list(trace.columns))
+    summary.add(trace, series.mass_kg, series.slope_deg)
+    return summary.result()
 
 
 def _format_summary(s: dict[str, Any], name: str, source: str) -> str:
@@ -185,6 +217,32 @@ def _series_column(series: EstimateSeries, name: str) -> np.ndarray:
     if name in ("t_s", "mass_kg", "slope_deg", "mass_std_kg", "slope_std_deg"):
         return np.asarray(getattr(series, name))
     return series.extras[name]
+
+
+def _estimate_blocks(estimator: Any, blocks: TraceBlocks, columns: list[str], out: str | None,
+                     summary: _Summary, needs: Sequence[str], name: str) -> None:
+    """Read, estimate and write block by block: a long log is never held whole, nor are its estimates.
+
+    Each block continues from the estimator's state and the last time of the block before (the same numbers as one
+    ``run()`` over the whole trace, tested). The output is renamed into place only after the last block and the
+    end-of-file checks passed.
+    """
+    has_values = dict.fromkeys(needs, False)
+    t_prev: float | None = None
+    formats = ["%r"] + [ESTIMATE_FORMAT] * (len(columns) - 1)  # time exactly as read
+    with csv_writer_atomic(out, columns, formats) if out is not None else nullcontext() as writer:
+        for part in blocks:
+            series = estimator.run(part, reset=t_prev is None, t_prev_s=t_prev)
+            t_prev = float(part["t_s"][-1])
+            if writer is not None:
+                writer.write([_series_column(series, c) for c in columns])
+            summary.add(part, series.mass_kg, series.slope_deg)
+            for c in has_values:
+                has_values[c] = has_values[c] or bool(np.isfinite(part[c]).any())
+        lacking = [c for c, ok in has_values.items() if not ok]
+        if lacking:
+            raise _CliError(f"{blocks.path}:1: --estimator {name} needs column(s) {', '.join(lacking)}, "
+                            f"which the trace lacks (or has no values in)")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -233,31 +291,32 @@ def _run(args: argparse.Namespace) -> int:
         except OutputPathError as exc:
             raise _CliError(str(exc)) from None
         remove_stale_temps(args.out)  # left by a run that was killed (SIGKILL) while writing
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", TraceWarning)
-        try:
-            trace = read_trace_csv(args.trace, columns=_INPUT_COLUMNS)
-        except TraceFormatError as exc:
-            raise _CliError(str(exc)) from None
-    for w in caught:
-        print(f"{PROG}: warning: {w.message}", file=sys.stderr)
+    try:
+        blocks = TraceBlocks(args.trace, columns=tuple(cls.inputs) + _TRUTH_COLUMNS)
+    except TraceFormatError as exc:
+        raise _CliError(str(exc)) from None
     needs = tuple(getattr(cls, "needs", _NEEDS.get(args.estimator, ())))
-    lacking = [c for c in needs if c not in trace or not np.isfinite(trace[c]).any()]
-    if lacking:
-        raise _CliError(f"{args.trace}:1: --estimator {args.estimator} needs column(s) {', '.join(lacking)}, "
+    absent = [c for c in needs if c not in blocks.columns]
+    if absent:
+        raise _CliError(f"{args.trace}:1: --estimator {args.estimator} needs column(s) {', '.join(absent)}, "
                         f"which the trace lacks (or has no values in)")
     if not {"mass", "slope"} <= provides:
         print(f"{PROG}: note: {args.estimator} estimates {', '.join(sorted(provides))}; "
               f"writing {', '.join(columns)}", file=sys.stderr)
-    series = cls(vehicle).run(trace)
-    if args.out is not None:
+    scores = _Summary(args.settle_s, provides, blocks.columns)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TraceWarning)
         try:
-            write_csv_atomic(args.out, columns, [_series_column(series, c) for c in columns])
+            _estimate_blocks(cls(vehicle), blocks, columns, args.out, scores, needs, args.estimator)
+        except TraceFormatError as exc:
+            raise _CliError(str(exc)) from None
         except OSError as exc:
             raise _CliError(f"{args.out}: cannot write: {exc.strerror or exc}") from None
         except ValueError as exc:  # an estimator that output inf: a bug, but the old file stays
             raise _CliError(f"{args.out}: not written: {exc}") from None
-    summary = summarize(trace, series, args.settle_s, provides)
+    for w in caught:
+        print(f"{PROG}: warning: {w.message}", file=sys.stderr)
+    summary = scores.result()
     summary["estimator"] = args.estimator
     summary["trace"] = str(args.trace)
     if args.json:

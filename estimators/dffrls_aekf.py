@@ -59,7 +59,7 @@ from uuom_core.trace import Trace
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from . import dffrls_aekf_kernel as kern
-from .base import Estimate, EstimateSeries, Estimator
+from .base import Estimate, EstimateSeries, Estimator, first_step_dts
 from .filters import MAX_STEP_S
 
 __all__ = ["DFFRLSAEKF", "DFFRLSAEKFConfig"]
@@ -260,6 +260,7 @@ class DFFRLSAEKF(Estimator):
 
     name: ClassVar[str] = "dffrls-aekf"
     provides: ClassVar[frozenset[str]] = frozenset({"mass", "slope", "mu"})
+    inputs: ClassVar[tuple[str, ...]] = ()  # torque, speed and accelerometer only
 
     def __init__(self, vehicle: VehicleParams | None = None, config: DFFRLSAEKFConfig | None = None,
                  **options: Any) -> None:
@@ -292,13 +293,16 @@ class DFFRLSAEKF(Estimator):
             extras["gravity_weight_sensor"] = float(o[6])
         return Estimate(float(o[0]), float(o[1]), float(o[2]), float(o[3]), extras)
 
-    def run(self, trace: Trace, reset: bool = True) -> EstimateSeries:
-        """The whole trace in one compiled loop; the same results as calling :meth:`update` per sample."""
+    def run(self, trace: Trace, reset: bool = True, *, t_prev_s: float | None = None) -> EstimateSeries:
+        """The whole trace in one compiled loop; the same results as calling :meth:`update` per sample.
+
+        ``reset`` and ``t_prev_s`` as in :meth:`Estimator.run` (block-by-block runs of a long log).
+        """
         if reset:
             self.reset()
         t = np.ascontiguousarray(trace["t_s"], dtype=np.float64)
         n = len(t)
-        dts = np.diff(t, prepend=t[0] - (t[1] - t[0] if n > 1 else 0.005))
+        dts = first_step_dts(t, t_prev_s)
         # Column-major, so each output column is a contiguous view: no copies (10^6 samples: 56 MB, not 112 MB).
         out = np.empty((7, n)).T
         col = [np.ascontiguousarray(trace[k], dtype=np.float64) for k in ("torque_nm", "speed_mps", "accel_mps2")]

@@ -5,6 +5,7 @@ means the same thing everywhere:
 
 - :func:`error_after_settling` -- RMSE, mean and maximum absolute error over the samples at or after
   ``t[0] + settle_s`` where the truth is known (relative errors in percent of the truth when ``relative``);
+  :class:`ErrorAccumulator` the same block by block;
 - :func:`settling_time_s` -- the time from the start after which the error stays within a tolerance to the end;
 - :func:`consistency` -- normalised estimation error squared (NEES) of a scalar estimate against its reported
   standard deviation, its χ² 95 % band, and the fraction of samples whose truth lies inside ±2σ;
@@ -22,6 +23,7 @@ import numpy as np
 
 __all__ = [
     "Consistency",
+    "ErrorAccumulator",
     "ErrorStats",
     "chi2_band",
     "consistency",
@@ -78,6 +80,57 @@ def _errors(estimate: np.ndarray, truth: np.ndarray, relative: bool) -> np.ndarr
     return err
 
 
+class ErrorAccumulator:
+    """Errors after the settle time, accumulated block by block (a log too long to hold whole).
+
+    ``add`` the blocks of one trace in order; :meth:`result` gives what :func:`error_after_settling` gives for the
+    whole trace (which is this class with one block).
+
+    Parameters
+    ----------
+    settle_s : float
+        Convergence time from the first sample of the first block, excluded from the score.
+    relative : bool
+        Errors in percent of the truth (for mass).
+    """
+
+    def __init__(self, settle_s: float = 10.0, *, relative: bool = False) -> None:
+        if not (math.isfinite(settle_s) and settle_s >= 0):
+            raise ValueError(f"settle_s must be a finite number >= 0, got {settle_s!r}")
+        self.settle_s = settle_s
+        self.relative = relative
+        self._t_start: float | None = None
+        self._sum_sq = 0.0
+        self._sum_abs = 0.0
+        self._max_abs = 0.0
+        self._n = 0
+
+    def add(self, t_s: np.ndarray, estimate: np.ndarray, truth: np.ndarray) -> None:
+        """Score one block (equally long 1-D arrays; NaN truth left out; a non-finite estimate is an infinite error)."""
+        if self._t_start is None:
+            m = settled_mask(t_s, self.settle_s, truth)
+            self._t_start = float(np.asarray(t_s, dtype=float)[0]) + self.settle_s
+        else:
+            m = (np.asarray(t_s, dtype=float) >= self._t_start) & np.isfinite(np.asarray(truth, dtype=float))
+        if len(np.asarray(estimate)) != len(m):
+            raise ValueError(f"estimate has {len(np.asarray(estimate))} samples, t_s has {len(m)}")
+        if not np.any(m):
+            return
+        err = _errors(np.asarray(estimate)[m], np.asarray(truth)[m], self.relative)
+        err = np.where(np.isfinite(err), err, np.inf)
+        a = np.abs(err)
+        self._sum_sq += float(np.sum(err * err))
+        self._sum_abs += float(np.sum(a))
+        self._max_abs = max(self._max_abs, float(np.max(a)))
+        self._n += int(a.size)
+
+    def result(self) -> ErrorStats | None:
+        """The errors so far; None when no sample with known truth lies after the settle time."""
+        if self._n == 0:
+            return None
+        return ErrorStats(math.sqrt(self._sum_sq / self._n), self._sum_abs / self._n, self._max_abs, self._n)
+
+
 def error_after_settling(
     t_s: np.ndarray,
     estimate: np.ndarray,
@@ -103,15 +156,9 @@ def error_after_settling(
     ErrorStats or None
         None when no sample with known truth lies after the settle time.
     """
-    m = settled_mask(t_s, settle_s, truth)
-    if len(np.asarray(estimate)) != len(m):
-        raise ValueError(f"estimate has {len(np.asarray(estimate))} samples, t_s has {len(m)}")
-    if not np.any(m):
-        return None
-    err = _errors(np.asarray(estimate)[m], np.asarray(truth)[m], relative)
-    err = np.where(np.isfinite(err), err, np.inf)
-    a = np.abs(err)
-    return ErrorStats(float(np.sqrt(np.mean(err * err))), float(np.mean(a)), float(np.max(a)), int(a.size))
+    acc = ErrorAccumulator(settle_s, relative=relative)
+    acc.add(t_s, estimate, truth)
+    return acc.result()
 
 
 def settling_time_s(

@@ -15,12 +15,14 @@ import stat
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable, Mapping
+from contextlib import contextmanager
+from typing import IO, BinaryIO, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
 from uuom_core.atomic_write import atomic_text_writer
-from uuom_core.trace_csv import RawColumns, TraceFormatError, TraceWarning, parse_exact, parse_fast, read_header
+from uuom_core.trace_csv import (RawColumns, TraceFormatError, TraceWarning, iter_blocks, parse_exact, parse_fast,
+                                 read_header)
 
 REQUIRED_COLUMNS: tuple[str, ...] = ("t_s", "torque_nm", "speed_mps", "accel_mps2")
 """Columns every trace must have."""
@@ -127,79 +129,147 @@ SPARSE_WARN_FRACTION = 0.5
 """A required column empty in more than this fraction of rows gets a warning."""
 
 
-def _check_columns(raw: RawColumns, path: str) -> list[str]:
-    """Check what the parsed numbers mean; raise :class:`TraceFormatError` or return warning lines."""
-    cols = raw.values
-    t = cols["t_s"]
-    n = len(t)
-    if n == 0:
-        raise TraceFormatError(f"{path}:2: empty file (header but no samples)")
-    for name, v in cols.items():
-        bad = np.flatnonzero(np.isinf(v))
-        if bad.size:
+class _Checker:
+    """Checks what the parsed numbers mean, one block of rows at a time (a whole file is one block).
+
+    :meth:`check` raises :class:`TraceFormatError` at the first bad row of a block; :meth:`finish` raises what only
+    the whole file can show (no rows, the median sample interval, a column with no values) and returns the
+    warning lines. Reading in blocks and reading whole give the same errors and warnings.
+    """
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+        self.rows = 0
+        self._last_t: float | None = None
+        self._last_line = 0
+        self._line_row1 = 0
+        self._dts: list[np.ndarray] = []
+        self._gaps = 0
+        self._longest_gap = (0.0, 0)  # (dt, line after the gap)
+        self._empty = dict.fromkeys(REQUIRED_COLUMNS[1:], 0)
+        self._short = 0
+        self._first_short = 0
+
+    def check(self, raw: RawColumns) -> None:
+        path, cols = self.path, raw.values
+        t = cols["t_s"]
+        n = len(t)
+        if n == 0:
+            return
+        for name, v in cols.items():
+            bad = np.flatnonzero(np.isinf(v))
+            if bad.size:
+                raise TraceFormatError(
+                    f"{path}:{raw.line_of(bad[0])}: column '{name}': value must be finite, "
+                    f"got {float(v[bad[0]])!r}"
+                )
+        missing_t = np.flatnonzero(np.isnan(t))
+        if missing_t.size:
+            raise TraceFormatError(f"{path}:{raw.line_of(missing_t[0])}: column 't_s': time is empty")
+        for name, v in cols.items():
+            limit = PLAUSIBLE_ABS_MAX.get(name, math.inf)
+            with np.errstate(invalid="ignore"):
+                bad = np.flatnonzero(np.abs(v) > limit)
+            if bad.size:
+                i = bad[0]
+                raise TraceFormatError(
+                    f"{path}:{raw.line_of(i)}: column '{name}': {float(v[i])!r} is outside the plausible range "
+                    f"[-{limit:g}, {limit:g}]" + (f" ({bad.size} such rows)" if bad.size > 1 else "")
+                )
+        first = self._last_t is None
+        dt = np.diff(t) if first else np.diff(t, prepend=self._last_t)
+        offset = 1 if first else 0  # dt[k] is the step into row k + offset
+
+        def line(row: int) -> int:  # row -1: the previous block's last
+            return raw.line_of(row) if row >= 0 else self._last_line
+
+        back = np.flatnonzero(dt <= 0.0)
+        if back.size:
+            i = back[0] + offset
+            before = float(t[i - 1]) if i >= 1 else self._last_t
             raise TraceFormatError(
-                f"{path}:{raw.line_of(bad[0])}: column '{name}': value must be finite, "
-                f"got {float(v[bad[0]])!r}"
-            )
-    missing_t = np.flatnonzero(np.isnan(t))
-    if missing_t.size:
-        raise TraceFormatError(f"{path}:{raw.line_of(missing_t[0])}: column 't_s': time is empty")
-    for name, v in cols.items():
-        limit = PLAUSIBLE_ABS_MAX.get(name, math.inf)
-        with np.errstate(invalid="ignore"):
-            bad = np.flatnonzero(np.abs(v) > limit)
-        if bad.size:
-            i = bad[0]
-            raise TraceFormatError(
-                f"{path}:{raw.line_of(i)}: column '{name}': {float(v[i])!r} is outside the plausible range "
-                f"[-{limit:g}, {limit:g}]" + (f" ({bad.size} such rows)" if bad.size > 1 else "")
-            )
-    dt = np.diff(t)
-    back = np.flatnonzero(dt <= 0.0)
-    if back.size:
-        i = back[0] + 1
-        raise TraceFormatError(
-            f"{path}:{raw.line_of(i)}: column 't_s': time not strictly increasing "
-            f"({float(t[i])!r} after {float(t[i - 1])!r})"
-        )
-    warnings_out: list[str] = []
-    if n >= 2:
-        med = float(np.median(dt))
-        lo, hi = SAMPLE_INTERVAL_RANGE_S
-        if not lo <= med <= hi:
-            hint = " (time in milliseconds? the column must be in seconds)" if 1.0 < med <= 1000.0 else ""
-            raise TraceFormatError(
-                f"{path}:{raw.line_of(1)}: column 't_s': median sample interval {med:g} s is outside "
-                f"{lo:g}-{hi:g} s{hint}"
+                f"{path}:{line(i)}: column 't_s': time not strictly increasing ({float(t[i])!r} after {before!r})"
             )
         huge = np.flatnonzero(dt > MAX_GAP_S)
         if huge.size:
-            i = huge[0] + 1
+            i = huge[0] + offset
             raise TraceFormatError(
-                f"{path}:{raw.line_of(i)}: column 't_s': time jumps by {dt[i - 1]:g} s (more than a day) "
-                f"after line {raw.line_of(i - 1)}: two logs joined? split the file there"
+                f"{path}:{line(i)}: column 't_s': time jumps by {dt[huge[0]]:g} s (more than a day) "
+                f"after line {line(i - 1)}: two logs joined? split the file there"
             )
         gaps = np.flatnonzero(dt > DROPOUT_WARN_S)
         if gaps.size:
+            self._gaps += gaps.size
             j = gaps[np.argmax(dt[gaps])]
+            if dt[j] > self._longest_gap[0]:
+                self._longest_gap = (float(dt[j]), line(j + offset))
+        if not self._line_row1 and self.rows + n >= 2:
+            self._line_row1 = raw.line_of(1 - self.rows)
+        self._dts.append(dt.astype(np.float32))  # only for the median: half the memory of a long log
+        for name in self._empty:
+            self._empty[name] += int(np.count_nonzero(np.isnan(cols[name])))
+        if raw.short_rows:
+            self._short += raw.short_rows
+            self._first_short = self._first_short or raw.first_short_line
+        self.rows += n
+        self._last_t = float(t[-1])
+        self._last_line = raw.line_of(n - 1)
+
+    def finish(self) -> list[str]:
+        path, n = self.path, self.rows
+        if n == 0:
+            raise TraceFormatError(f"{path}:2: empty file (header but no samples)")
+        warnings_out: list[str] = []
+        if n >= 2:
+            med = float(np.median(np.concatenate(self._dts)))
+            lo, hi = SAMPLE_INTERVAL_RANGE_S
+            if not lo <= med <= hi:
+                hint = " (time in milliseconds? the column must be in seconds)" if 1.0 < med <= 1000.0 else ""
+                raise TraceFormatError(
+                    f"{path}:{self._line_row1}: column 't_s': median sample interval {med:g} s is outside "
+                    f"{lo:g}-{hi:g} s{hint}"
+                )
+            if self._gaps:
+                longest, line = self._longest_gap
+                warnings_out.append(
+                    f"{path}: column 't_s': {self._gaps} dropout(s) longer than {DROPOUT_WARN_S:g} s "
+                    f"(longest {longest:g} s before line {line})"
+                )
+        for name, empty in self._empty.items():
+            if empty == n:
+                raise TraceFormatError(f"{path}:2: column '{name}': no values (every cell is empty)")
+            if empty > SPARSE_WARN_FRACTION * n:
+                warnings_out.append(
+                    f"{path}: column '{name}': empty in {100.0 * empty / n:.1f} % of rows ({empty} of {n})"
+                )
+        if self._short:
             warnings_out.append(
-                f"{path}: column 't_s': {gaps.size} dropout(s) longer than {DROPOUT_WARN_S:g} s "
-                f"(longest {dt[j]:g} s before line {raw.line_of(j + 1)})"
+                f"{path}:{self._first_short}: {self._short} row(s) shorter than the header (first on this "
+                f"line); their missing cells read as empty"
             )
-    for name in REQUIRED_COLUMNS[1:]:
-        empty = int(np.count_nonzero(np.isnan(cols[name])))
-        if empty == n:
-            raise TraceFormatError(f"{path}:2: column '{name}': no values (every cell is empty)")
-        if empty > SPARSE_WARN_FRACTION * n:
-            warnings_out.append(
-                f"{path}: column '{name}': empty in {100.0 * empty / n:.1f} % of rows ({empty} of {n})"
-            )
-    if raw.short_rows:
-        warnings_out.append(
-            f"{path}:{raw.first_short_line}: {raw.short_rows} row(s) shorter than the header (first on this "
-            f"line); their missing cells read as empty"
-        )
-    return warnings_out
+        return warnings_out
+
+
+def _open_trace(path: str | Path) -> BinaryIO:
+    path_s = str(path)
+    try:
+        st = os.stat(path)  # before open(): opening a FIFO would block until someone writes to it
+        if stat.S_ISDIR(st.st_mode):
+            raise TraceFormatError(f"{path_s}: is a directory, not a trace file")
+        if not stat.S_ISREG(st.st_mode):
+            raise TraceFormatError(f"{path_s}: not a regular file (FIFO, device or socket)")
+        return open(path, "rb")
+    except FileNotFoundError:
+        raise TraceFormatError(f"{path_s}: no such trace file") from None
+    except OSError as exc:
+        raise TraceFormatError(f"{path_s}: cannot read: {exc.strerror or exc}") from None
+
+
+def _wanted(header: list[str], columns: Iterable[str] | None) -> list[tuple[int, str]]:
+    known = set(REQUIRED_COLUMNS + OPTIONAL_COLUMNS + EXTRA_COLUMNS)
+    if columns is not None:
+        known &= set(REQUIRED_COLUMNS) | set(columns)
+    return [(i, h) for i, h in enumerate(header) if h in known]
 
 
 def read_trace_csv(path: str | Path, *, columns: Iterable[str] | None = None) -> Trace:
@@ -226,34 +296,121 @@ def read_trace_csv(path: str | Path, *, columns: Iterable[str] | None = None) ->
         outside :data:`SAMPLE_INTERVAL_RANGE_S` (time in milliseconds) or a time gap over :data:`MAX_GAP_S`.
     """
     path_s = str(path)
-    try:
-        st = os.stat(path)  # before open(): opening a FIFO would block until someone writes to it
-        if stat.S_ISDIR(st.st_mode):
-            raise TraceFormatError(f"{path_s}: is a directory, not a trace file")
-        if not stat.S_ISREG(st.st_mode):
-            raise TraceFormatError(f"{path_s}: not a regular file (FIFO, device or socket)")
-        fh = open(path, "rb")
-    except FileNotFoundError:
-        raise TraceFormatError(f"{path_s}: no such trace file") from None
-    except OSError as exc:
-        raise TraceFormatError(f"{path_s}: cannot read: {exc.strerror or exc}") from None
-    with fh:
+    with _open_trace(path) as fh:
         header = read_header(fh, path_s, REQUIRED_COLUMNS)
-        known = set(REQUIRED_COLUMNS + OPTIONAL_COLUMNS + EXTRA_COLUMNS)
-        if columns is not None:
-            known &= set(REQUIRED_COLUMNS) | set(columns)
-        wanted = [(i, h) for i, h in enumerate(header) if h in known]
+        wanted = _wanted(header, columns)
         start = fh.tell()
         raw = parse_fast(fh, start, header, wanted)
         if raw is None:
             raw = parse_exact(fh, start, path_s, header, wanted)
-    notes = _check_columns(raw, path_s)
+    checker = _Checker(path_s)
+    checker.check(raw)
+    notes = checker.finish()
     for note in notes:
         warnings.warn(note, TraceWarning, stacklevel=2)
     return Trace(dict(raw.values), source=path_s, warnings=notes)
 
 
+class TraceBlocks:
+    """A trace file read block by block (a few MiB of text each), checked as :func:`read_trace_csv` checks it.
+
+    For logs too long to hold whole: iterate to get each block as a :class:`Trace` (validated before it is
+    yielded); after the last one, :attr:`warnings` holds what :func:`read_trace_csv` would warn about (also issued
+    as :class:`TraceWarning`). Errors that only the whole file shows (median sample interval in milliseconds, a
+    column with no values) are raised at the end of the iteration, so a consumer must treat its work as
+    incomplete until the loop ends without error (``uuom-estimate`` writes atomically).
+
+    Parameters
+    ----------
+    path : str or Path
+    columns : iterable of str, optional
+        As in :func:`read_trace_csv`.
+
+    Attributes
+    ----------
+    header : list of str
+        The file's header (read on construction, so a missing column is reported before any block).
+    columns : list of str
+        The columns each block holds.
+    rows : int
+        Rows read so far.
+    """
+
+    def __init__(self, path: str | Path, *, columns: Iterable[str] | None = None) -> None:
+        self.path = str(path)
+        with _open_trace(path) as fh:
+            self.header = read_header(fh, self.path, REQUIRED_COLUMNS)
+            self._start = fh.tell()
+        self._wanted = _wanted(self.header, columns)
+        self.columns = [name for _, name in self._wanted]
+        self.warnings: list[str] = []
+        self.rows = 0
+
+    def __iter__(self) -> Iterator[Trace]:
+        checker = _Checker(self.path)
+        with _open_trace(self.path) as fh:
+            for raw in iter_blocks(fh, self._start, self.path, self.header, self._wanted):
+                checker.check(raw)
+                self.rows = checker.rows
+                if len(raw):
+                    yield Trace(raw.values, source=self.path)
+        self.warnings = checker.finish()
+        for note in self.warnings:
+            warnings.warn(note, TraceWarning, stacklevel=2)
+
+
 _WRITE_ROWS = 8192
+
+
+class CsvColumnWriter:
+    """Appends rows of float columns to an open text file, in the format :func:`write_csv_atomic` promises.
+
+    NaN cells are written empty, numbers in the shortest form that reads back exactly (``repr``) unless
+    ``formats`` says otherwise (one %-format per column, e.g. ``"%.9g"``). Use it through
+    :func:`csv_writer_atomic` to write a long result block by block without holding it whole in memory.
+    """
+
+    def __init__(self, fh: IO[str], header: Iterable[str], formats: Sequence[str] | None = None) -> None:
+        self.header = list(header)
+        if formats is not None and len(formats) != len(self.header):
+            raise ValueError(f"{len(formats)} formats for a header of {len(self.header)}")
+        # "%r" is the shortest exact form; a fixed precision ("%.9g") writes 2-3x faster
+        self._row_format = ",".join(formats or ["%r"] * len(self.header)) + "\n"
+        self._fh = fh
+        self.rows = 0
+        fh.write(",".join(self.header) + "\n")
+
+    def write(self, columns: Iterable[np.ndarray]) -> None:
+        """Append equally long columns (one per header name); ``ValueError`` for infinite values or bad lengths."""
+        cols = [np.asarray(c, dtype=np.float64) for c in columns]
+        if len(cols) != len(self.header):
+            raise ValueError(f"{len(cols)} columns for a header of {len(self.header)}")
+        if len({len(c) for c in cols}) > 1:
+            raise ValueError(f"columns differ in length: {[len(c) for c in cols]}")
+        for name, c in zip(self.header, cols):
+            if np.isinf(c).any():
+                raise ValueError(f"column {name!r} has infinite values; the trace format cannot hold them")
+        n = len(cols[0]) if cols else 0
+        for a in range(0, n, _WRITE_ROWS):
+            # tolist() makes Python floats in C; one %-format over the block; "nan" -> empty cell
+            cells = np.column_stack([c[a:a + _WRITE_ROWS] for c in cols]).ravel().tolist()
+            text = (self._row_format * (len(cells) // len(cols))) % tuple(cells)
+            self._fh.write(text.replace("nan", ""))
+        self.rows += n
+
+
+@contextmanager
+def csv_writer_atomic(path: str | Path, header: Iterable[str],
+                      formats: Sequence[str] | None = None) -> Iterator[CsvColumnWriter]:
+    """A :class:`CsvColumnWriter` on a temporary file that replaces ``path`` when the block ends without error.
+
+    ``formats``: one %-format per column (default ``"%r"``, the shortest form that reads back exactly).
+
+    On any exception (a ``ValueError`` from an infinite value, ``KeyboardInterrupt``) ``path`` is untouched and no
+    temporary file is left (:func:`uuom_core.atomic_write.atomic_text_writer`).
+    """
+    with atomic_text_writer(path) as fh:
+        yield CsvColumnWriter(fh, header, formats)
 
 
 def write_csv_atomic(path: str | Path, header: Iterable[str], columns: Iterable[np.ndarray]) -> None:
@@ -270,15 +427,9 @@ def write_csv_atomic(path: str | Path, header: Iterable[str], columns: Iterable[
     for name, c in zip(header, cols):
         if np.isinf(c).any():
             raise ValueError(f"column {name!r} has infinite values; the trace format cannot hold them")
-    with atomic_text_writer(path) as fh:
-        fh.write(",".join(header) + "\n")
+    with csv_writer_atomic(path, header) as writer:
         if cols:
-            n = len(cols[0])
-            for a in range(0, n, _WRITE_ROWS):
-                # tolist() makes Python floats in C; repr is the shortest exact form; "nan" -> empty cell
-                rows = np.column_stack([c[a:a + _WRITE_ROWS] for c in cols]).tolist()
-                text = "\n".join([",".join(map(repr, r)) for r in rows]) + "\n"
-                fh.write(text.replace("nan", ""))
+            writer.write(cols)
 
 
 def write_trace_csv(trace: Trace | Mapping[str, np.ndarray], path: str | Path) -> None:
@@ -297,9 +448,12 @@ __all__ = [
     "PLAUSIBLE_ABS_MAX",
     "SAMPLE_INTERVAL_RANGE_S",
     "TRUTH_COLUMNS",
+    "CsvColumnWriter",
     "Trace",
+    "TraceBlocks",
     "TraceFormatError",
     "TraceWarning",
+    "csv_writer_atomic",
     "read_trace_csv",
     "write_csv_atomic",
     "write_trace_csv",

@@ -99,7 +99,8 @@ CONFIG_DOCS: dict[str, str] = {
     "physics_hz": "Plant, sensor and estimator rate (Hz); must be an integer multiple of policy_hz.",
     "observer": "What the agent is told about mass and slope: 'dffrls-aekf', any registered estimator name, "
     "'oracle' (true values) or 'none' (the prior only).",
-    "observer_options": "Keyword options passed to estimators.make(observer, vehicle, **options).",
+    "observer_options": "Keyword options passed to estimators.make(observer, vehicle, **options); for 'oracle': "
+    "mass_error (relative) and slope_error_deg, errors added to the truth (sensitivity studies).",
     "slip_observation": "Observation entry 11: 'sensors' (apparent slip velocity from the motor and ground-speed "
     "encoders / 0.5 m/s) or 'estimator' (the observer's estimated slip ratio, e.g. observer='aupf'; falls back to "
     "the sensors when the observer gives none).",

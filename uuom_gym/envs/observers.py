@@ -50,12 +50,32 @@ class Observer:
 
 
 class OracleObserver(Observer):
-    """The true mass and slope (the upper bound of what an estimator could give)."""
+    """The true mass and slope (the upper bound of what an estimator could give), optionally with a set error.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+    mass_error : float
+        Relative error added to the true mass (``0.1``: the agent is told 10 % more than the truth).
+    slope_error_deg : float
+        Error added to the true slope in degrees (positive: told the track rises more, or falls less, than it does).
+
+    The reported standard deviations stay 0: the agent is told the values are exact. With errors this is the
+    sensitivity experiment "how good must an estimator be" (``scripts/sensitivity.py``).
+    """
 
     name = "oracle"
 
+    def __init__(self, vehicle: VehicleParams, mass_error: float = 0.0, slope_error_deg: float = 0.0) -> None:
+        super().__init__(vehicle)
+        for key, value, bound in (("mass_error", mass_error, 0.9), ("slope_error_deg", slope_error_deg, 45.0)):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not abs(value) <= bound:
+                raise ValueError(f"oracle observer: {key} must be a number in [-{bound:g}, {bound:g}], got {value!r}")
+        self.mass_error = float(mass_error)
+        self.slope_error_rad = math.radians(slope_error_deg)
+
     def observe(self, measured, dt_s, true_mass_kg, true_slope_rad):  # type: ignore[override]
-        return float(true_mass_kg), float(true_slope_rad), 0.0, 0.0
+        return float(true_mass_kg) * (1.0 + self.mass_error), float(true_slope_rad) + self.slope_error_rad, 0.0, 0.0
 
 
 class PriorObserver(Observer):
@@ -128,8 +148,14 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
         If the name is unknown; the message lists every valid name.
     """
     if name == "oracle":
-        return OracleObserver(vehicle)
+        try:
+            return OracleObserver(vehicle, **dict(options or {}))
+        except TypeError:
+            raise ValueError(f"oracle observer: unknown option(s) {sorted(options or {})}; it takes mass_error and "
+                             f"slope_error_deg") from None
     if name == "none":
+        if options:
+            raise ValueError(f"observer 'none' takes no options, got {sorted(options)}")
         return PriorObserver(vehicle)
     import estimators
 

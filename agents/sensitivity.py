@@ -1,0 +1,181 @@
+"""How good must an estimator be? Trip rate and trip time against a set mass or slope error.
+
+A controller is run on the held-out tracks with the ``oracle`` observer told the truth plus a fixed error
+(``observer_options={"mass_error": e}`` or ``{"slope_error_deg": e}``, reported standard deviation 0: the
+controller believes it), one error at a time. For each error: success rate, overspeed-trip rate with its Wilson 95 %
+interval, and trip time relative to the oracle controller on the same track (mean over successful episodes, 95 %
+bootstrap interval over tracks). :func:`run_sensitivity` writes ``summary.csv``, ``summary.md``, the figure and the
+per-episode ``episodes.csv`` (git-ignored; regenerate with the command in ``summary.md``).
+
+Sign convention: a negative mass error (told lighter) and a positive slope error (told the track rises more or falls
+less) both raise the speed limit the controller computes above the true one: the unsafe directions.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from agents.evaluation import DEFAULT_SEED_BASE, Task, run_tasks
+from agents.evaluation_table import write_csv
+
+DEFAULT_MASS_ERRORS: tuple[float, ...] = (-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3)
+DEFAULT_SLOPE_ERRORS_DEG: tuple[float, ...] = (-3.0, -2.0, -1.0, -0.5, 0.5, 1.0, 2.0, 3.0)
+
+
+def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval of a proportion ``k / n`` (95 % for ``z = 1.96``); ``(nan, nan)`` for ``n = 0``."""
+    if n == 0:
+        return math.nan, math.nan
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def bootstrap_mean_ci(x: Sequence[float], rng: np.random.Generator, resamples: int = 2000) -> tuple[float, float]:
+    """95 % percentile-bootstrap interval of the mean of ``x``; ``(nan, nan)`` when empty."""
+    a = np.asarray(x, dtype=float)
+    if a.size == 0:
+        return math.nan, math.nan
+    means = a[rng.integers(0, a.size, size=(resamples, a.size))].mean(axis=1)
+    return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+
+
+@dataclass
+class SensitivityConfig:
+    """What :func:`run_sensitivity` runs (the options of ``scripts/sensitivity.py``)."""
+
+    controller: str = "rule-based"
+    mass_errors: Sequence[float] = DEFAULT_MASS_ERRORS
+    slope_errors_deg: Sequence[float] = DEFAULT_SLOPE_ERRORS_DEG
+    episodes: int = 100
+    seed_base: int = DEFAULT_SEED_BASE
+    workers: int = 1
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    out: Path = Path("results/sensitivity")
+    command: str | None = None
+
+
+def _tasks(config: SensitivityConfig) -> list[tuple[str, float, Task]]:
+    seeds = range(config.seed_base, config.seed_base + config.episodes)
+    settings = [("none", 0.0)] + [("mass", e) for e in config.mass_errors] + \
+        [("slope", e) for e in config.slope_errors_deg]
+    out: list[tuple[str, float, Task]] = []
+    for s in seeds:
+        out.append(("reference", 0.0, Task("oracle", "oracle", s, json.dumps(config.env_kwargs, sort_keys=True))))
+    for kind, err in settings:
+        opts = {} if kind == "none" else {"mass_error": err} if kind == "mass" else {"slope_error_deg": err}
+        kw = json.dumps({**config.env_kwargs, "observer_options": opts}, sort_keys=True)
+        for s in seeds:
+            out.append((kind, err, Task(config.controller, "oracle", s, kw)))
+    return out
+
+
+def summarise_sensitivity(rows: list[dict[str, Any]], seed: int = 0) -> list[dict[str, Any]]:
+    """One row per (error kind, error): rates with intervals and trip time / oracle."""
+    rng = np.random.default_rng(seed)
+    ref = {r["seed"]: r["trip_time_s"] for r in rows if r["error_kind"] == "reference" and r["success"]}
+    groups: dict[tuple[str, float], list[dict[str, Any]]] = {}
+    for r in rows:
+        if r["error_kind"] != "reference":
+            groups.setdefault((r["error_kind"], float(r["error"])), []).append(r)
+    out = []
+    for (kind, err), rs in sorted(groups.items(), key=lambda kv: (kv[0][0] != "none", kv[0][0], kv[0][1])):
+        n = len(rs)
+        trips = sum(bool(r["overspeed_trip"]) for r in rs)
+        ratios = [r["trip_time_s"] / ref[r["seed"]] for r in rs if r["success"] and r["seed"] in ref]
+        lo, hi = wilson_interval(trips, n)
+        tlo, thi = bootstrap_mean_ci(ratios, rng)
+        out.append({
+            "error_kind": kind, "error": err, "episodes": n,
+            "success_rate": sum(bool(r["success"]) for r in rs) / n,
+            "trip_rate": trips / n, "trip_rate_lo": lo, "trip_rate_hi": hi,
+            "trip_time_vs_oracle": float(np.mean(ratios)) if ratios else math.nan,
+            "trip_time_lo": tlo, "trip_time_hi": thi,
+            "cost_rate": float(np.mean([r["cost_rate"] for r in rs])),
+        })
+    return out
+
+
+def markdown(summary: list[dict[str, Any]]) -> str:
+    lines = ["| injected error | success | overspeed trips (95 % CI) | trip time / oracle (95 % CI) | cost rate |",
+             "|---|---|---|---|---|"]
+    for r in summary:
+        what = ("none" if r["error_kind"] == "none" else
+                f"mass {100 * r['error']:+.0f} %" if r["error_kind"] == "mass" else f"slope {r['error']:+.1f}°")
+        lines.append(
+            f"| {what} | {100 * r['success_rate']:.0f} % | {100 * r['trip_rate']:.0f} % "
+            f"({100 * r['trip_rate_lo']:.0f}–{100 * r['trip_rate_hi']:.0f} %) | "
+            f"{r['trip_time_vs_oracle']:.3f} ({r['trip_time_lo']:.3f}–{r['trip_time_hi']:.3f}) | "
+            f"{r['cost_rate']:.2e} |")
+    return "\n".join(lines) + "\n"
+
+
+def plot(summary: list[dict[str, Any]], path: Path, controller: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    base = [r for r in summary if r["error_kind"] == "none"]
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6.5), sharex="col")
+    for col, (kind, scale, label) in enumerate((("mass", 100.0, "injected mass error (%)"),
+                                                 ("slope", 1.0, "injected slope error (deg)"))):
+        rs = sorted([r for r in summary if r["error_kind"] == kind] + [dict(b, error=0.0) for b in base],
+                    key=lambda r: r["error"])
+        x = np.array([scale * r["error"] for r in rs])
+        for row, (key, ylab) in enumerate((("trip_rate", "overspeed-trip rate"),
+                                           ("trip_time_vs_oracle", "trip time / oracle"))):
+            ax = axes[row, col]
+            y = np.array([r[key] for r in rs])
+            lo_key, hi_key = ("trip_rate_lo", "trip_rate_hi") if key == "trip_rate" else ("trip_time_lo",
+                                                                                          "trip_time_hi")
+            lo = np.array([r[lo_key] for r in rs])
+            hi = np.array([r[hi_key] for r in rs])
+            ax.plot(x, y, "o-", color="C3" if row == 0 else "C0")
+            ax.fill_between(x, lo, hi, alpha=0.25, color="C3" if row == 0 else "C0")
+            ax.axvline(0.0, color="0.6", lw=0.8)
+            ax.set_ylabel(ylab)
+            ax.grid(alpha=0.3)
+            if row == 1:
+                ax.set_xlabel(label + ("\n(negative: told lighter, unsafe)" if kind == "mass"
+                                       else "\n(positive: told less downhill, unsafe)"))
+    n = base[0]["episodes"] if base else 0
+    fig.suptitle(f"{controller} with the oracle observer plus a set error, {n} held-out tracks (95 % CI)")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run_sensitivity(config: SensitivityConfig, progress: bool = True) -> list[dict[str, Any]]:
+    """Run the grid; write ``episodes.csv``, ``summary.csv``, ``summary.md`` and ``sensitivity.png``."""
+    if config.episodes < 1:
+        raise ValueError(f"episodes must be >= 1, got {config.episodes}")
+    labelled = _tasks(config)
+    rows = run_tasks([t for _, _, t in labelled], config.workers, progress=progress)
+    for (kind, err, _), row in zip(labelled, rows):
+        row["error_kind"] = kind
+        row["error"] = err
+    summary = summarise_sensitivity(rows)
+    out = Path(config.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "episodes.csv", rows)
+    write_csv(out / "summary.csv", summary)
+    plot(summary, out / "sensitivity.png", config.controller)
+    cmd = config.command or "(called from Python)"
+    (out / "summary.md").write_text(
+        f"{config.controller}, oracle observer plus a set error, held-out seeds {config.seed_base}.."
+        f"{config.seed_base + config.episodes - 1} ({config.episodes} tracks), {len(rows)} episodes.\n"
+        f"Command: `{cmd}`\n\n" + markdown(summary) + "\nFigure: sensitivity.png\n")
+    return summary
+
+
+__all__ = ["SensitivityConfig", "bootstrap_mean_ci", "markdown", "run_sensitivity", "summarise_sensitivity",
+           "wilson_interval"]

@@ -1,0 +1,74 @@
+"""The sensitivity experiment: the oracle observer with a set error, the interval helpers, a one-track run."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import uuom_gym  # noqa: F401  (registers the env)
+from agents.sensitivity import SensitivityConfig, bootstrap_mean_ci, run_sensitivity, wilson_interval
+from uuom_gym.envs.observation import observation_by_name
+
+
+def test_oracle_observer_adds_the_set_error() -> None:
+    from uuom_core.vehicle import DEFAULT_VEHICLE
+    from uuom_gym.envs.observers import make_observer
+
+    exact = make_observer("oracle", DEFAULT_VEHICLE)
+    biased = make_observer("oracle", DEFAULT_VEHICLE, {"mass_error": -0.2, "slope_error_deg": 1.5})
+    m, s, ms, ss = exact.observe({}, 0.05, 20_000.0, -0.03)
+    assert (m, s, ms, ss) == (20_000.0, -0.03, 0.0, 0.0)
+    m, s, ms, ss = biased.observe({}, 0.05, 20_000.0, -0.03)
+    assert m == pytest.approx(16_000.0) and s == pytest.approx(-0.03 + math.radians(1.5)) and ms == ss == 0.0
+
+
+def test_the_error_reaches_the_observation() -> None:
+    obs = {}
+    for opts in ({}, {"mass_error": 0.3}):
+        env = gym.make("UUOM-Track-v0", observer="oracle", observer_options=opts)
+        env.reset(seed=100_001)
+        o, *_ = env.step(np.array([0.3], dtype=np.float32))
+        obs[bool(opts)] = observation_by_name(o)
+        env.close()
+    assert obs[True]["est_load"] > obs[False]["est_load"]
+    assert obs[True]["est_speed_limit"] < obs[False]["est_speed_limit"]  # told heavier: a lower limit
+
+
+@pytest.mark.parametrize("opts, match", [({"bogus": 1}, "unknown option"), ({"mass_error": 5.0}, "mass_error"),
+                                         ({"slope_error_deg": "1"}, "slope_error_deg")])
+def test_bad_oracle_options_are_refused(opts, match) -> None:
+    with pytest.raises(ValueError, match=match):
+        gym.make("UUOM-Track-v0", observer="oracle", observer_options=opts)
+
+
+def test_none_observer_takes_no_options() -> None:
+    with pytest.raises(ValueError, match="takes no options"):
+        gym.make("UUOM-Track-v0", observer="none", observer_options={"mass_error": 0.1})
+
+
+def test_wilson_interval() -> None:
+    assert wilson_interval(0, 100)[0] == 0.0 and 0.03 < wilson_interval(0, 100)[1] < 0.04
+    lo, hi = wilson_interval(50, 100)
+    assert lo == pytest.approx(0.4038, abs=1e-3) and hi == pytest.approx(0.5962, abs=1e-3)
+    assert all(math.isnan(x) for x in wilson_interval(0, 0))
+
+
+def test_bootstrap_interval_brackets_the_mean() -> None:
+    rng = np.random.default_rng(1)
+    x = rng.normal(1.1, 0.05, 80)
+    lo, hi = bootstrap_mean_ci(x, np.random.default_rng(0))
+    assert lo < x.mean() < hi and hi - lo < 0.05
+    assert all(math.isnan(v) for v in bootstrap_mean_ci([], rng))
+
+
+def test_one_track_run_writes_the_study(tmp_path) -> None:
+    summary = run_sensitivity(SensitivityConfig(mass_errors=(-0.3,), slope_errors_deg=(), episodes=1,
+                                                out=tmp_path), progress=False)
+    assert [(r["error_kind"], r["error"]) for r in summary] == [("none", 0.0), ("mass", -0.3)]
+    assert summary[0]["success_rate"] == 1.0 and summary[0]["trip_time_vs_oracle"] >= 1.0
+    for name in ("summary.md", "summary.csv", "episodes.csv", "sensitivity.png"):
+        assert (tmp_path / name).exists()
+    assert "mass -30 %" in (tmp_path / "summary.md").read_text()

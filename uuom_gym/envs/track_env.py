@@ -91,7 +91,8 @@ class UUOMTrackEnv(gym.Env):
     | 15  | stop_margin           | (measured speed - sqrt(2 x 0.3 m/s^2 x distance to go)) / 2   | -2   | 2   |
 
     Position is odometry (integrated encoder speed) reset at track-side markers every 25 m. There is no grade
-    preview: roadways have no surveyed grade map. With ``observer="oracle"`` entries 3-7 are the truth (std 0);
+    preview: roadways have no surveyed grade map. With ``observer="oracle"`` entries 3-7 are the truth (std 0;
+    ``observer_options={"mass_error": e, "slope_error_deg": d}`` adds a set error, for sensitivity studies);
     with ``observer="none"`` they hold the prior and the worst-case limit (rated load, steepest down-grade).
     Entries 12-15 are functions of the others and of the previous step's speed, which a memoryless policy
     cannot form (see :mod:`uuom_gym.envs.observation`).

@@ -28,7 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.evaluation_table import DEFAULT_OBSERVERS, RULES, markdown_table, read_episodes, summarise, write_csv
+from agents.evaluation_table import (DEFAULT_OBSERVERS, RULES, markdown_ci_table, markdown_table, read_episodes,
+                                     summarise, write_csv)
 
 ENV_ID = "UUOM-Track-v0"
 DEFAULT_SEED_BASE = 100_000
@@ -243,7 +244,7 @@ def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
     agents.ray_support.RayUnavailableError
         ``use_ray`` without Ray installed.
     """
-    from agents.evaluation_plots import plot_bars, plot_episode
+    from agents.evaluation_plots import plot_bars, plot_episode, plot_tradeoff
 
     check_config(config)
     kw = json.dumps(config.env_kwargs, sort_keys=True)
@@ -285,12 +286,19 @@ def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
     episode_png = Path(config.episode_png) if config.episode_png is not None else out / "episode.png"
     for path in (bars_png, episode_png):
         path.parent.mkdir(parents=True, exist_ok=True)
+    tradeoff_png = bars_png.with_name(bars_png.stem.replace("bars", "tradeoff") if "bars" in bars_png.stem
+                                      else bars_png.stem + "_tradeoff").with_suffix(".png")
     plot_bars(summary, bars_png)
+    plot_tradeoff(summary, tradeoff_png)
     plot_episode(rec, episode_png)
-    figures = [str(p) for p in (bars_png, episode_png) if p.exists()]
-    (out / "summary.md").write_text(head + md + f"\nFigures: {', '.join(figures)}.\n")
+    figures = [str(p) for p in (bars_png, tradeoff_png, episode_png) if p.exists()]
+    md_ci = markdown_ci_table(summary)
+    (out / "summary.md").write_text(head + md + "\nWith 95 % intervals (Wilson for rates; bootstrap over tracks "
+                                    "for the interquartile mean of trip time / oracle):\n\n" + md_ci
+                                    + f"\nFigures: {', '.join(figures)}.\n")
     if not config.quiet:
         print(md)
+        print(md_ci)
         print(f"{len(rows)} episodes -> {out}")
     return summary
 

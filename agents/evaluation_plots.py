@@ -1,4 +1,5 @@
-"""Figures of :func:`agents.evaluation.evaluate`: grouped bars per observer, speed vs limit along an episode."""
+"""Figures of :func:`agents.evaluation.evaluate`: grouped bars per observer, trip time vs trip rate with 95 %
+intervals, speed vs limit along an episode."""
 
 from __future__ import annotations
 
@@ -51,6 +52,38 @@ def plot_bars(summary: list[dict[str, Any]], path: Path) -> None:
     fig.legend(handles, labels, fontsize=8, loc="lower center", ncol=len(labels), frameon=False)
     fig.suptitle("UUOM-Track-v0: controllers x observers on the same held-out tracks", fontsize=11)
     fig.tight_layout(rect=(0, 0.07, 1, 1))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_tradeoff(summary: list[dict[str, Any]], path: Path) -> None:
+    """One point per controller x observer: overspeed-trip rate (x) against trip time / oracle (IQM, y), with
+    their 95 % intervals. Down and left is better: the figure to read in ten seconds."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in summary if r["controller"] != "oracle" and np.isfinite(r.get("trip_time_iqm", np.nan))]
+    if not rows:
+        return
+    ctrls = list(dict.fromkeys(r["controller"] for r in rows))
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for i, ctrl in enumerate(ctrls):
+        rs = [r for r in rows if r["controller"] == ctrl]
+        x = np.array([100 * r["overspeed_trips"] / r["episodes"] for r in rs])
+        y = np.array([r["trip_time_iqm"] for r in rs])
+        xerr = np.array([[x[k] - 100 * r["trip_rate_lo"], 100 * r["trip_rate_hi"] - x[k]] for k, r in enumerate(rs)]).T
+        yerr = np.array([[y[k] - r["trip_time_iqm_lo"], r["trip_time_iqm_hi"] - y[k]] for k, r in enumerate(rs)]).T
+        ax.errorbar(x, y, xerr=xerr, yerr=yerr, fmt="o", color=f"C{i}", capsize=3, label=ctrl)
+        for xk, yk, r in zip(x, y, rs):
+            ax.annotate(r["observer"], (xk, yk), textcoords="offset points", xytext=(5, 4), fontsize=8)
+    ax.set_xlabel("overspeed trips (% of episodes, 95 % Wilson interval)")
+    ax.set_ylabel("trip time / oracle (IQM, 95 % bootstrap interval)")
+    ax.set_title("Estimator and safety: lower left is better")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from agents.statistics import bootstrap_ci, iqm, wilson_interval
+
 DEFAULT_OBSERVERS = ("oracle", "dffrls-aekf", "rls-ekf", "ekf", "ffrls", "none")
 """Observers evaluated by default, in table order."""
 RULES = ("speed_limit", "adhesion", "rollback", "sway", "overspeed_trip", "stall")
@@ -29,6 +31,7 @@ def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[
         energy = [r["energy_kj_per_tkm"] for r in rs if r["success"] and math.isfinite(r["energy_kj_per_tkm"])]
         mass_err = [r["mass_err_pct"] for r in rs if math.isfinite(r["mass_err_pct"])]
         slope_err = [r["slope_err_deg"] for r in rs if math.isfinite(r["slope_err_deg"])]
+        ci = bootstrap_ci(ratios)
         row = {
             "controller": ctrl,
             "observer": obs,
@@ -37,11 +40,17 @@ def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[
             "overspeed_trips": sum(bool(r["overspeed_trip"]) for r in rs),
             "cost_rate": sum(r["cost"] for r in rs) / max(steps, 1),
             "trip_time_vs_oracle": float(np.mean(ratios)) if ratios else float("nan"),
+            "trip_time_iqm": iqm(ratios),
+            "trip_time_iqm_lo": ci[0],
+            "trip_time_iqm_hi": ci[1],
             "energy_kj_per_tkm": float(np.mean(energy)) if energy else float("nan"),
             "mass_err_pct": float(np.mean(mass_err)) if mass_err else float("nan"),
             "slope_err_deg": float(np.mean(slope_err)) if slope_err else float("nan"),
             "km": km,
         }
+        trips = row["overspeed_trips"]
+        row["trip_rate_lo"], row["trip_rate_hi"] = wilson_interval(trips, n)
+        row["success_lo"], row["success_hi"] = wilson_interval(sum(bool(r["success"]) for r in rs), n)
         for rule in RULES:
             row[f"viol_per_km/{rule}"] = sum(r[f"violations/{rule}"] for r in rs) / max(km, 1e-9)
         out.append(row)
@@ -108,4 +117,26 @@ def markdown_table(summary: list[dict[str, Any]]) -> str:
     return head + "\n".join(lines) + "\n"
 
 
-__all__ = ["DEFAULT_OBSERVERS", "RULES", "markdown_table", "read_episodes", "summarise", "write_csv"]
+def markdown_ci_table(summary: list[dict[str, Any]]) -> str:
+    """The compact table with 95 % intervals: Wilson for rates, bootstrap over tracks for the trip-time IQM."""
+    lines = ["| controller | observer | success (95 % CI) | overspeed trips (95 % CI) | trip time / oracle, IQM (95 % CI) |",
+             "|---|---|---|---|---|"]
+
+    def pct(x: float) -> str:
+        return "n/a" if not math.isfinite(x) else f"{100 * x:.0f}"
+
+    for r in summary:
+        if r["controller"] == "oracle":
+            continue
+        t = r.get("trip_time_iqm", float("nan"))
+        tt = "n/a" if not math.isfinite(t) else (
+            f"{t:.3f} ({r['trip_time_iqm_lo']:.3f}–{r['trip_time_iqm_hi']:.3f})")
+        lines.append(
+            f"| {r['controller']} | {r['observer']} | {100 * r['success_rate']:.0f} % ({pct(r['success_lo'])}–"
+            f"{pct(r['success_hi'])} %) | {r['overspeed_trips']}/{r['episodes']} ({pct(r['trip_rate_lo'])}–"
+            f"{pct(r['trip_rate_hi'])} %) | {tt} |")
+    return "\n".join(lines) + "\n"
+
+
+__all__ = ["DEFAULT_OBSERVERS", "RULES", "markdown_ci_table", "markdown_table", "read_episodes", "summarise",
+           "write_csv"]

@@ -3,8 +3,8 @@
 A controller is run on the held-out tracks with the ``oracle`` observer told the truth plus a fixed error
 (``observer_options={"mass_error": e}`` or ``{"slope_error_deg": e}``, reported standard deviation 0: the
 controller believes it), one error at a time. For each error: success rate, overspeed-trip rate with its Wilson 95 %
-interval, and trip time relative to the oracle controller on the same track (mean over successful episodes, 95 %
-bootstrap interval over tracks). :func:`run_sensitivity` writes ``summary.csv``, ``summary.md``, the figure and the
+interval, and trip time relative to the oracle controller on the same track (interquartile mean over successful
+episodes, 95 % bootstrap interval over tracks; :mod:`agents.statistics`). :func:`run_sensitivity` writes ``summary.csv``, ``summary.md``, the figure and the
 per-episode ``episodes.csv`` (git-ignored; regenerate with the command in ``summary.md``).
 
 Sign convention: a negative mass error (told lighter) and a positive slope error (told the track rises more or falls
@@ -14,7 +14,6 @@ less) both raise the speed limit the controller computes above the true one: the
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
@@ -22,29 +21,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from agents.evaluation import DEFAULT_SEED_BASE, Task, run_tasks
-from agents.evaluation_table import write_csv
+from agents.evaluation_table import read_episodes, write_csv
+from agents.statistics import bootstrap_ci, iqm, wilson_interval
 
 DEFAULT_MASS_ERRORS: tuple[float, ...] = (-0.3, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.3)
 DEFAULT_SLOPE_ERRORS_DEG: tuple[float, ...] = (-3.0, -2.0, -1.0, -0.5, 0.5, 1.0, 2.0, 3.0)
-
-
-def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """Wilson score interval of a proportion ``k / n`` (95 % for ``z = 1.96``); ``(nan, nan)`` for ``n = 0``."""
-    if n == 0:
-        return math.nan, math.nan
-    p = k / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return max(0.0, centre - half), min(1.0, centre + half)
-
-
-def bootstrap_mean_ci(x: Sequence[float], rng: np.random.Generator, resamples: int = 2000) -> tuple[float, float]:
-    """95 % percentile-bootstrap interval of the mean of ``x``; ``(nan, nan)`` when empty."""
-    a = np.asarray(x, dtype=float)
-    if a.size == 0:
-        return math.nan, math.nan
-    means = a[rng.integers(0, a.size, size=(resamples, a.size))].mean(axis=1)
-    return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
 
 
 @dataclass
@@ -77,9 +58,8 @@ def _tasks(config: SensitivityConfig) -> list[tuple[str, float, Task]]:
     return out
 
 
-def summarise_sensitivity(rows: list[dict[str, Any]], seed: int = 0) -> list[dict[str, Any]]:
-    """One row per (error kind, error): rates with intervals and trip time / oracle."""
-    rng = np.random.default_rng(seed)
+def summarise_sensitivity(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per (error kind, error): rates with Wilson intervals, trip time / oracle as IQM with bootstrap CI."""
     ref = {r["seed"]: r["trip_time_s"] for r in rows if r["error_kind"] == "reference" and r["success"]}
     groups: dict[tuple[str, float], list[dict[str, Any]]] = {}
     for r in rows:
@@ -91,12 +71,12 @@ def summarise_sensitivity(rows: list[dict[str, Any]], seed: int = 0) -> list[dic
         trips = sum(bool(r["overspeed_trip"]) for r in rs)
         ratios = [r["trip_time_s"] / ref[r["seed"]] for r in rs if r["success"] and r["seed"] in ref]
         lo, hi = wilson_interval(trips, n)
-        tlo, thi = bootstrap_mean_ci(ratios, rng)
+        tlo, thi = bootstrap_ci(ratios)
         out.append({
             "error_kind": kind, "error": err, "episodes": n,
             "success_rate": sum(bool(r["success"]) for r in rs) / n,
             "trip_rate": trips / n, "trip_rate_lo": lo, "trip_rate_hi": hi,
-            "trip_time_vs_oracle": float(np.mean(ratios)) if ratios else math.nan,
+            "trip_time_vs_oracle": iqm(ratios),
             "trip_time_lo": tlo, "trip_time_hi": thi,
             "cost_rate": float(np.mean([r["cost_rate"] for r in rs])),
         })
@@ -104,7 +84,7 @@ def summarise_sensitivity(rows: list[dict[str, Any]], seed: int = 0) -> list[dic
 
 
 def markdown(summary: list[dict[str, Any]]) -> str:
-    lines = ["| injected error | success | overspeed trips (95 % CI) | trip time / oracle (95 % CI) | cost rate |",
+    lines = ["| injected error | success | overspeed trips (95 % CI) | trip time / oracle, IQM (95 % CI) | cost rate |",
              "|---|---|---|---|---|"]
     for r in summary:
         what = ("none" if r["error_kind"] == "none" else
@@ -163,19 +143,32 @@ def run_sensitivity(config: SensitivityConfig, progress: bool = True) -> list[di
     for (kind, err, _), row in zip(labelled, rows):
         row["error_kind"] = kind
         row["error"] = err
+    return _write(rows, config)
+
+
+def _write(rows: list[dict[str, Any]], config: SensitivityConfig) -> list[dict[str, Any]]:
     summary = summarise_sensitivity(rows)
     out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
     write_csv(out / "episodes.csv", rows)
     write_csv(out / "summary.csv", summary)
     plot(summary, out / "sensitivity.png", config.controller)
+    seeds = sorted({int(r["seed"]) for r in rows})
     cmd = config.command or "(called from Python)"
     (out / "summary.md").write_text(
-        f"{config.controller}, oracle observer plus a set error, held-out seeds {config.seed_base}.."
-        f"{config.seed_base + config.episodes - 1} ({config.episodes} tracks), {len(rows)} episodes.\n"
+        f"{config.controller}, oracle observer plus a set error, held-out seeds {seeds[0]}..{seeds[-1]} "
+        f"({len(seeds)} tracks), {len(rows)} episodes.\n"
         f"Command: `{cmd}`\n\n" + markdown(summary) + "\nFigure: sensitivity.png\n")
     return summary
 
 
-__all__ = ["SensitivityConfig", "bootstrap_mean_ci", "markdown", "run_sensitivity", "summarise_sensitivity",
-           "wilson_interval"]
+def rebuild(config: SensitivityConfig) -> list[dict[str, Any]]:
+    """Recompute the summary, table and figure from ``config.out/episodes.csv`` without running episodes."""
+    rows = read_episodes(Path(config.out) / "episodes.csv")
+    for r in rows:
+        r["error_kind"] = str(r["error_kind"])
+        r["error"] = float(r["error"])
+    return _write(rows, config)
+
+
+__all__ = ["SensitivityConfig", "markdown", "rebuild", "run_sensitivity", "summarise_sensitivity"]

@@ -15,7 +15,8 @@ import shlex
 import sys
 from pathlib import Path
 
-from agents.sensitivity import DEFAULT_MASS_ERRORS, DEFAULT_SLOPE_ERRORS_DEG, SensitivityConfig, run_sensitivity
+from agents.sensitivity import (DEFAULT_MASS_ERRORS, DEFAULT_SLOPE_ERRORS_DEG, SensitivityConfig, markdown, rebuild,
+                                run_sensitivity)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -30,16 +31,16 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--env-kwargs", type=json.loads, default={}, help="JSON dict passed to gym.make")
     p.add_argument("--out", type=Path, default=Path("results/sensitivity"))
     p.add_argument("--quiet", action="store_true")
+    p.add_argument("--rebuild", action="store_true",
+                   help="recompute summary and figure from OUT/episodes.csv of an earlier run (no episodes run)")
     args = p.parse_args(argv)
     if args.episodes < 1 or args.workers < 1:
         p.error("--episodes and --workers must be >= 1")
     cmd = " ".join(["python scripts/sensitivity.py"] + [shlex.quote(a) for a in (argv or sys.argv[1:])])
-    summary = run_sensitivity(SensitivityConfig(
+    config = SensitivityConfig(
         controller=args.controller, mass_errors=args.mass_errors, slope_errors_deg=args.slope_errors_deg,
-        episodes=args.episodes, workers=args.workers, env_kwargs=args.env_kwargs, out=args.out, command=cmd),
-        progress=not args.quiet)
-    from agents.sensitivity import markdown
-
+        episodes=args.episodes, workers=args.workers, env_kwargs=args.env_kwargs, out=args.out, command=cmd)
+    summary = rebuild(config) if args.rebuild else run_sensitivity(config, progress=not args.quiet)
     print(markdown(summary))
     return 0
 

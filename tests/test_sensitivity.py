@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import uuom_gym  # noqa: F401  (registers the env)
-from agents.sensitivity import SensitivityConfig, bootstrap_mean_ci, run_sensitivity, wilson_interval
+from agents.sensitivity import SensitivityConfig, rebuild, run_sensitivity
+from agents.statistics import bootstrap_ci, iqm, wilson_interval
 from uuom_gym.envs.observation import observation_by_name
 
 
@@ -56,12 +57,20 @@ def test_wilson_interval() -> None:
     assert all(math.isnan(x) for x in wilson_interval(0, 0))
 
 
-def test_bootstrap_interval_brackets_the_mean() -> None:
+def test_iqm_and_bootstrap_interval() -> None:
+    assert iqm([1, 2, 3, 4, 100, -100, 2.5, 3.5]) == pytest.approx(np.mean([2, 2.5, 3, 3.5]))
     rng = np.random.default_rng(1)
     x = rng.normal(1.1, 0.05, 80)
-    lo, hi = bootstrap_mean_ci(x, np.random.default_rng(0))
-    assert lo < x.mean() < hi and hi - lo < 0.05
-    assert all(math.isnan(v) for v in bootstrap_mean_ci([], rng))
+    lo, hi = bootstrap_ci(x)
+    assert lo < iqm(x) < hi and hi - lo < 0.05
+    assert bootstrap_ci(x) == (lo, hi)  # seeded: the same table every time
+    two_level = rng.normal(1.1, 0.05, (3, 80))
+    two_level[0, :5] = np.nan  # failed episodes have no trip time
+    lo2, hi2 = bootstrap_ci(two_level, np.mean)
+    assert lo2 < np.nanmean(two_level) < hi2
+    assert all(math.isnan(v) for v in bootstrap_ci([]))
+    with pytest.raises(ValueError, match="seeds x tracks"):
+        bootstrap_ci(np.zeros((2, 2, 2)))
 
 
 def test_one_track_run_writes_the_study(tmp_path) -> None:
@@ -72,3 +81,4 @@ def test_one_track_run_writes_the_study(tmp_path) -> None:
     for name in ("summary.md", "summary.csv", "episodes.csv", "sensitivity.png"):
         assert (tmp_path / name).exists()
     assert "mass -30 %" in (tmp_path / "summary.md").read_text()
+    assert rebuild(SensitivityConfig(out=tmp_path)) == summary  # the table again from episodes.csv

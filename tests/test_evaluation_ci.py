@@ -1,0 +1,35 @@
+"""Confidence intervals in the evaluation table and the trip-time-vs-trip-rate figure (synthetic rows)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from agents.evaluation_plots import plot_tradeoff
+from agents.evaluation_table import RULES, markdown_ci_table, summarise
+
+
+def _rows() -> list[dict]:
+    rng = np.random.default_rng(0)
+    rows = []
+    for seed in range(40):
+        base = {"distance_m": 200.0, "steps": 1000, "cost": 0.0, "energy_kj_per_tkm": 350.0, "mass_err_pct": 1.0,
+                "slope_err_deg": 0.1, **{f"violations/{r}": 0 for r in RULES}}
+        rows.append({**base, "controller": "oracle", "observer": "oracle", "seed": seed, "success": True,
+                     "overspeed_trip": False, "trip_time_s": 100.0})
+        trip = seed < 4  # 4 of 40 trip
+        rows.append({**base, "controller": "rule-based", "observer": "ekf", "seed": seed, "success": not trip,
+                     "overspeed_trip": trip, "trip_time_s": 100.0 * (1.2 + 0.02 * rng.normal())})
+    return rows
+
+
+def test_summary_has_intervals_and_the_ci_table(tmp_path) -> None:
+    summary = summarise(_rows())
+    rb = next(r for r in summary if r["controller"] == "rule-based")
+    assert rb["overspeed_trips"] == 4 and rb["trip_rate_lo"] < 0.1 < rb["trip_rate_hi"]
+    assert rb["trip_time_iqm_lo"] < rb["trip_time_iqm"] < rb["trip_time_iqm_hi"]
+    assert abs(rb["trip_time_iqm"] - 1.2) < 0.02
+    table = markdown_ci_table(summary)
+    assert "| rule-based | ekf | 90 % (" in table and "4/40 (" in table and "oracle |" not in table.split("\n", 2)[2]
+    png = tmp_path / "tradeoff.png"
+    plot_tradeoff(summary, png)
+    assert png.stat().st_size > 10_000

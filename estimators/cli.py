@@ -9,10 +9,9 @@ Writes one row per input row (``t_s, mass_kg, slope_deg, mass_std_kg, slope_std_
 estimates; 9 significant digits, time exactly as read) atomically, reading, estimating and writing block by block
 so that a log hours long needs no more memory than a short one, and when the trace has truth columns prints per
 quantity the RMSE and the maximum absolute error over the samples after the settle time (mass also in percent). Bad
-input gives one line
-``uuom-estimate: error: FILE:LINE: ...`` on stderr and exit status 2; Ctrl-C one line and status 130. In every case
-the output file is untouched unless the run completed, and the input is never written. ``docs/cli.md`` lists the
-guarantees and every bad input with its message.
+input gives one line ``uuom-estimate: error: FILE:LINE: ...`` on stderr and exit status 2; Ctrl-C one line and
+status 130. In every case the output file is untouched unless the run completed, and the input is never written.
+``docs/cli.md`` lists the guarantees and every bad input with its message.
 """
 
 from __future__ import annotations

@@ -4,7 +4,8 @@ A :class:`Trace` is a set of equally long float columns, one row per sensor samp
 and become ``NaN`` in memory; literal ``nan``/``inf`` text in a file is an error (a logger that wrote it is broken),
 and so are numbers no sensor gives (:data:`PLAUSIBLE_ABS_MAX`) and a time column in other units than seconds.
 Parsing is in :mod:`uuom_core.trace_csv` (a fast columnar path, an exact fallback); writing is atomic
-(:mod:`uuom_core.atomic_write`): the file appears whole or not at all.
+(:mod:`uuom_core.trace_write`, :mod:`uuom_core.atomic_write`): the file appears whole or not at all. Long logs can be
+read block by block (:class:`TraceBlocks`) with the same checks.
 """
 
 from __future__ import annotations
@@ -15,14 +16,13 @@ import stat
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from contextlib import contextmanager
-from typing import IO, BinaryIO, Iterable, Iterator, Mapping, Sequence
+from typing import BinaryIO, Iterable, Iterator, Mapping
 
 import numpy as np
 
-from uuom_core.atomic_write import atomic_text_writer
 from uuom_core.trace_csv import (RawColumns, TraceFormatError, TraceWarning, iter_blocks, parse_exact, parse_fast,
                                  read_header)
+from uuom_core.trace_write import CsvColumnWriter, csv_writer_atomic, write_csv_atomic
 
 REQUIRED_COLUMNS: tuple[str, ...] = ("t_s", "torque_nm", "speed_mps", "accel_mps2")
 """Columns every trace must have."""
@@ -357,79 +357,6 @@ class TraceBlocks:
         self.warnings = checker.finish()
         for note in self.warnings:
             warnings.warn(note, TraceWarning, stacklevel=2)
-
-
-_WRITE_ROWS = 8192
-
-
-class CsvColumnWriter:
-    """Appends rows of float columns to an open text file, in the format :func:`write_csv_atomic` promises.
-
-    NaN cells are written empty, numbers in the shortest form that reads back exactly (``repr``) unless
-    ``formats`` says otherwise (one %-format per column, e.g. ``"%.9g"``). Use it through
-    :func:`csv_writer_atomic` to write a long result block by block without holding it whole in memory.
-    """
-
-    def __init__(self, fh: IO[str], header: Iterable[str], formats: Sequence[str] | None = None) -> None:
-        self.header = list(header)
-        if formats is not None and len(formats) != len(self.header):
-            raise ValueError(f"{len(formats)} formats for a header of {len(self.header)}")
-        # "%r" is the shortest exact form; a fixed precision ("%.9g") writes 2-3x faster
-        self._row_format = ",".join(formats or ["%r"] * len(self.header)) + "\n"
-        self._fh = fh
-        self.rows = 0
-        fh.write(",".join(self.header) + "\n")
-
-    def write(self, columns: Iterable[np.ndarray]) -> None:
-        """Append equally long columns (one per header name); ``ValueError`` for infinite values or bad lengths."""
-        cols = [np.asarray(c, dtype=np.float64) for c in columns]
-        if len(cols) != len(self.header):
-            raise ValueError(f"{len(cols)} columns for a header of {len(self.header)}")
-        if len({len(c) for c in cols}) > 1:
-            raise ValueError(f"columns differ in length: {[len(c) for c in cols]}")
-        for name, c in zip(self.header, cols):
-            if np.isinf(c).any():
-                raise ValueError(f"column {name!r} has infinite values; the trace format cannot hold them")
-        n = len(cols[0]) if cols else 0
-        for a in range(0, n, _WRITE_ROWS):
-            # tolist() makes Python floats in C; one %-format over the block; "nan" -> empty cell
-            cells = np.column_stack([c[a:a + _WRITE_ROWS] for c in cols]).ravel().tolist()
-            text = (self._row_format * (len(cells) // len(cols))) % tuple(cells)
-            self._fh.write(text.replace("nan", ""))
-        self.rows += n
-
-
-@contextmanager
-def csv_writer_atomic(path: str | Path, header: Iterable[str],
-                      formats: Sequence[str] | None = None) -> Iterator[CsvColumnWriter]:
-    """A :class:`CsvColumnWriter` on a temporary file that replaces ``path`` when the block ends without error.
-
-    ``formats``: one %-format per column (default ``"%r"``, the shortest form that reads back exactly).
-
-    On any exception (a ``ValueError`` from an infinite value, ``KeyboardInterrupt``) ``path`` is untouched and no
-    temporary file is left (:func:`uuom_core.atomic_write.atomic_text_writer`).
-    """
-    with atomic_text_writer(path) as fh:
-        yield CsvColumnWriter(fh, header, formats)
-
-
-def write_csv_atomic(path: str | Path, header: Iterable[str], columns: Iterable[np.ndarray]) -> None:
-    """Write columns to CSV via a temporary file in the same directory and an atomic rename.
-
-    NaN cells are written empty (missing samples), numbers in the shortest form that reads back exactly, so every
-    file this writes reads back with :func:`read_trace_csv`. Infinite values are refused (``ValueError``) before
-    anything is written. See :mod:`uuom_core.atomic_write` for what happens on interruption.
-    """
-    header = list(header)
-    cols = [np.asarray(c, dtype=np.float64) for c in columns]
-    if len({len(c) for c in cols}) > 1:
-        raise ValueError(f"columns differ in length: {[len(c) for c in cols]}")
-    for name, c in zip(header, cols):
-        if np.isinf(c).any():
-            raise ValueError(f"column {name!r} has infinite values; the trace format cannot hold them")
-    with csv_writer_atomic(path, header) as writer:
-        if cols:
-            writer.write(cols)
 
 
 def write_trace_csv(trace: Trace | Mapping[str, np.ndarray], path: str | Path) -> None:

@@ -40,16 +40,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, N_S, N_HIST_MAX,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
-
-try:  # numba is a dependency (pyproject.toml); the fallback keeps the package importable without it
-    from numba import njit
-except ImportError:  # pragma: no cover
-    def njit(*args, **kwargs):  # type: ignore[no-redef]
-        if args and callable(args[0]):
-            return args[0]
-        return lambda f: f
-
-HAVE_NUMBA = njit.__module__.startswith("numba")
+from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
 
 _kf_update = njit(cache=True, inline="always")(filters.kalman_update_2x2_h1)
 _repair = njit(cache=True, inline="always")(filters.repair_pd_2x2)

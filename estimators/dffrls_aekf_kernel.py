@@ -105,15 +105,21 @@ def reset(S, H, C):
     H[:] = 0.0
 
 
-@njit(cache=True)
-def _restart_signals(S, H):
-    """After a data gap: the filters' held states no longer describe the motion."""
+@njit(cache=True, inline="always")
+def _restart_filters(S):
+    """Restart the signal low-passes at the next sample, forget the speed differences, stop the load pendulum."""
     for i in (LF_OK, LV_OK, LQ_OK, LA_OK, LS_OK, LC_OK, LL_OK):
         S[i] = 0.0
     S[PREV_VF] = math.nan
     S[PREV_VQ] = math.nan
     S[SWAY] = 0.0
     S[SWAY_RATE] = 0.0
+
+
+@njit(cache=True)
+def _restart_signals(S, H):
+    """After a data gap: the filters' held states no longer describe the motion."""
+    _restart_filters(S)
     S[T_VALID] = 0.0
     S[GT_LAST] = math.nan
     S[GV_LAST] = math.nan
@@ -264,12 +270,7 @@ def step(S, H, C, torque, speed, accel, dt):
     if T == T and z == z and S[T_MISSING] > 0.1:
         # first good sample after a dropout: restart the signal filters at it; a held input jumping to the new
         # value would read as an acceleration and kick the load pendulum, which then rings for tens of seconds
-        for i in (LF_OK, LV_OK, LQ_OK, LA_OK, LS_OK, LC_OK, LL_OK):
-            S[i] = 0.0
-        S[PREV_VF] = math.nan
-        S[PREV_VQ] = math.nan
-        S[SWAY] = 0.0
-        S[SWAY_RATE] = 0.0
+        _restart_filters(S)
     F = _lp(S, LF1, T / C[RADIUS] if T == T else math.nan, a)
     vf = _lp(S, LV1, z, a)
     if S[LV_OK] == 0.0:  # no valid speed yet

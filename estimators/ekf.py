@@ -27,8 +27,7 @@ import numpy as np
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
-from .filters import (MAX_STEP_S, SpikeGate, check_dt, joseph_update, kalman_update_2x2_h1, repair_pd,
-                      repair_pd_2x2)
+from .filters import SpikeGate, capped_dt, joseph_update, kalman_update_2x2_h1, repair_pd, repair_pd_2x2
 
 __all__ = ["SlopeEKF", "JointEKF"]
 
@@ -236,9 +235,7 @@ class JointEKF(Estimator):
     def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
-        check_dt(dt_s)
-        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
-            dt_s = MAX_STEP_S
+        dt_s = capped_dt(dt_s)  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
         T = self.gate_torque(torque_nm, dt_s)
         if T == T:
             self.force = T / self.r

@@ -24,6 +24,7 @@ __all__ = [
     "repair_pd_2x2",
     "check_dt",
     "check_dt_non_negative",
+    "capped_dt",
     "MAX_STEP_S",
     "check_number_options",
     "kalman_update_2x2_h1",
@@ -49,6 +50,13 @@ def check_dt_non_negative(dt_s: float, who: str) -> float:
 
 MAX_STEP_S = 1.0
 """Longest sample interval integrated as one step; a longer one is a data gap (see :func:`effective_dt`)."""
+
+
+def capped_dt(dt_s: float) -> float:
+    """:func:`check_dt`, then at most :data:`MAX_STEP_S`: a longer interval is a data gap, integrated as that long."""
+    if not (dt_s > 0.0 and dt_s < math.inf):
+        check_dt(dt_s)  # raises
+    return dt_s if dt_s <= MAX_STEP_S else MAX_STEP_S
 
 
 def effective_dt(dt_s: float) -> float:

@@ -50,7 +50,7 @@ from typing import Any, ClassVar
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
-from .filters import MAX_STEP_S, check_dt, repair_pd_2x2
+from .filters import capped_dt, repair_pd_2x2
 from .regression_front_end import RegressionFrontEnd
 
 __all__ = ["RegressionFrontEnd", "RLSMassEstimator", "FFRLSMassEstimator", "DFFRLSMassEstimator"]
@@ -196,9 +196,7 @@ class _RLSMassBase(Estimator):
     def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
-        check_dt(dt_s)
-        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
-            dt_s = MAX_STEP_S
+        dt_s = capped_dt(dt_s)  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
         if self.front.step(torque_nm, speed_mps, dt_s):
             self._rls_step()
         return self.estimate

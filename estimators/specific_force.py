@@ -49,7 +49,7 @@ from typing import Any, ClassVar
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
-from .filters import MAX_STEP_S, LowPass2, SpikeGate, check_dt, kalman_update_2x2_h1, repair_pd_2x2
+from .filters import LowPass2, SpikeGate, capped_dt, kalman_update_2x2_h1, repair_pd_2x2
 from .regression_front_end import RegressionFrontEnd
 
 __all__ = ["SpecificForceKF"]
@@ -185,10 +185,7 @@ class SpecificForceKF(Estimator):
     def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
-        if not (dt_s > 0.0 and dt_s < math.inf):
-            check_dt(dt_s)
-        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
-            dt_s = MAX_STEP_S
+        dt_s = capped_dt(dt_s)  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
         f = self.gate_f(accel_mps2, dt_s)
         z = self.gate_v(speed_mps, dt_s)
         self._slope_step(f, z, dt_s)

@@ -9,7 +9,9 @@ import pytest
 
 from estimators.filters import (
     LowPass2,
+    MAX_STEP_S,
     SpikeGate,
+    capped_dt,
     check_dt,
     check_dt_non_negative,
     check_number_options,
@@ -91,6 +93,15 @@ def test_check_dt() -> None:
     for bad in (0.0, -1.0, math.nan, math.inf):
         with pytest.raises(ValueError, match="dt_s"):
             check_dt(bad)
+
+
+def test_capped_dt() -> None:
+    assert capped_dt(0.005) == 0.005
+    assert capped_dt(MAX_STEP_S) == MAX_STEP_S
+    assert capped_dt(1e300) == MAX_STEP_S  # a data gap
+    for bad in (0.0, -1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="dt_s must be a finite number > 0"):
+            capped_dt(bad)
 
 
 def test_check_dt_non_negative() -> None:

@@ -26,7 +26,7 @@ import numpy as np
 
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
-from .base import Estimate, Estimator
+from .base import Estimate, Estimator, reference_and_prior_mass
 from .filters import SpikeGate, capped_dt, joseph_update, kalman_update_2x2_h1, repair_pd, repair_pd_2x2
 
 __all__ = ["SlopeEKF", "JointEKF"]
@@ -206,10 +206,7 @@ class JointEKF(Estimator):
         self.r = v.drive_wheel_radius_m
         self.m_rot = v.rotating_mass_kg
         self.mu = v.running_resistance
-        self.m_ref = v.empty_mass_kg + 0.5 * v.rated_load_kg
-        self.prior_mass = float(self.m_ref if prior_mass_kg is None else prior_mass_kg)
-        if not (v.empty_mass_kg <= self.prior_mass <= v.max_mass_kg):
-            raise ValueError(f"prior_mass_kg must lie in [{v.empty_mass_kg}, {v.max_mass_kg}], got {self.prior_mass}")
+        self.m_ref, self.prior_mass = reference_and_prior_mass(v, prior_mass_kg)
         self.c_min = self.m_ref / v.max_mass_kg
         self.c_max = self.m_ref / v.empty_mass_kg
         self.R = float(speed_std_mps) ** 2

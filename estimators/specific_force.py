@@ -48,7 +48,7 @@ from typing import Any, ClassVar
 
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
-from .base import Estimate, Estimator
+from .base import Estimate, Estimator, reference_and_prior_mass
 from .filters import LowPass2, SpikeGate, capped_dt, kalman_update_2x2_h1, repair_pd_2x2
 from .regression_front_end import RegressionFrontEnd
 
@@ -131,10 +131,7 @@ class SpecificForceKF(Estimator):
         self.max_slope = math.radians(v.max_grade_deg + 5.0)
         self.m_rot = v.rotating_mass_kg
         self.mu0 = v.running_resistance
-        self.m_ref = v.empty_mass_kg + 0.5 * v.rated_load_kg
-        self.prior_mass = float(self.m_ref if prior_mass_kg is None else prior_mass_kg)
-        if not (v.empty_mass_kg <= self.prior_mass <= v.max_mass_kg):
-            raise ValueError(f"prior_mass_kg must lie in [{v.empty_mass_kg}, {v.max_mass_kg}], got {self.prior_mass}")
+        self.m_ref, self.prior_mass = reference_and_prior_mass(v, prior_mass_kg)
         self.c_min = v.empty_mass_kg / self.m_ref
         self.c_max = v.max_mass_kg / self.m_ref
         c0 = self.prior_mass / self.m_ref

@@ -27,6 +27,7 @@ __all__ = [
     "capped_dt",
     "MAX_STEP_S",
     "check_number_options",
+    "check_int_option",
     "kalman_update_2x2_h1",
     "effective_dt",
     "hold_last_valid",
@@ -97,6 +98,16 @@ def check_number_options(
     for key in non_negative:
         if values[key] < 0:
             raise error(f"{key} must be >= 0, got {values[key]!r}")
+
+
+def check_int_option(name: str, value: object, error: type[Exception], minimum: int | None = None) -> None:
+    """Validate an integer option (``int`` or ``np.integer``, never ``bool``; ``>= minimum`` when given), raising
+    ``error`` with a message that names it."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or (
+        minimum is not None and value < minimum
+    ):
+        bound = "" if minimum is None else f" >= {minimum}"
+        raise error(f"{name} must be an integer{bound}, got {value!r}")
 
 
 def hold_last_valid(x: np.ndarray) -> np.ndarray:

@@ -14,6 +14,7 @@ from estimators.filters import (
     capped_dt,
     check_dt,
     check_dt_non_negative,
+    check_int_option,
     check_number_options,
     dynamic_forgetting,
     hold_last_valid,
@@ -138,3 +139,13 @@ def test_hold_last_valid() -> None:
     y = hold_last_valid(np.array([np.nan, np.inf, 4.0, np.nan, 5.0, -np.inf]))
     assert y.tolist() == [4.0, 4.0, 4.0, 4.0, 5.0, 5.0]  # leading gap takes the first valid value
     assert hold_last_valid(np.full(3, np.nan)).tolist() == [0.0, 0.0, 0.0]
+
+
+def test_check_int_option() -> None:
+    check_int_option("n", 2, _OptionError, minimum=2)
+    check_int_option("seed", np.int64(-3), _OptionError)
+    with pytest.raises(_OptionError, match=r"n must be an integer >= 2, got 1"):
+        check_int_option("n", 1, _OptionError, minimum=2)
+    for bad in (True, 1.5, "3", None):
+        with pytest.raises(_OptionError, match=r"^seed must be an integer, got"):
+            check_int_option("seed", bad, _OptionError)

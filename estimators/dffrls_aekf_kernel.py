@@ -330,6 +330,9 @@ def step(S, H, C, torque, speed, accel, dt):
 
     # ---------------- mass layer: DFFRLS on the specific-force regression ----------------------------------------
     #   (F - m_rot a - M_rigid (a - a_load)) / M_ref = [a_load + g sin th_train, g cos th_train] . [c, d]
+    # The two-parameter RLS in Kalman form with the Schmidt update of estimators.rls._RLSMassBase._rls_step, written
+    # out here on purpose: the compiled step cannot call that method, and its variant differs (outlier gate, offset
+    # mode, >= bounds). The three-parameter fused step (fused_kernel.py) forgets and bounds the same way.
     h1 = a_load_f + g * sin_lp
     h2 = g * cos_lp if C[OFF_FORGET] == 0.0 else g
     c, dd = S[MC], S[MD]

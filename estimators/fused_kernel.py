@@ -36,6 +36,8 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
     lm = 1.0 - C[MASS_FORGET] * (1.0 - lam)
     ld = 1.0 - C[OFF_FORGET] * (1.0 - lam)
     lb = lm
+    # vector forgetting bounded by the prior: the two-parameter step of dffrls_aekf_kernel with a third parameter,
+    # written out for the compiled loop
     if p11 / lm >= C[P0_C]:
         lm = 1.0
     if p22 / ld >= C[P0_D]:

@@ -28,6 +28,7 @@ __all__ = [
     "MAX_STEP_S",
     "check_number_options",
     "check_int_option",
+    "check_positive",
     "kalman_update_2x2_h1",
     "effective_dt",
     "hold_last_valid",
@@ -98,6 +99,13 @@ def check_number_options(
     for key in non_negative:
         if values[key] < 0:
             raise error(f"{key} must be >= 0, got {values[key]!r}")
+
+
+def check_positive(prefix: str = "", /, **values: float) -> None:
+    """Raise ``ValueError`` naming the first of ``values`` that is not a finite number > 0 (message after ``prefix``)."""
+    for name, value in values.items():
+        if not (value > 0.0 and math.isfinite(value)):
+            raise ValueError(f"{prefix}{name} must be a finite number > 0, got {value!r}")
 
 
 def check_int_option(name: str, value: object, error: type[Exception], minimum: int | None = None) -> None:
@@ -209,9 +217,7 @@ class SpikeGate:
     __slots__ = ("max_rate", "noise_band", "max_abs", "relock_after", "last", "rejected", "total_rejected")
 
     def __init__(self, max_rate: float, noise_band: float, max_abs: float, relock_after: int = 40) -> None:
-        for name, value in (("max_rate", max_rate), ("noise_band", noise_band), ("max_abs", max_abs)):
-            if not (value > 0.0 and math.isfinite(value)):
-                raise ValueError(f"SpikeGate: {name} must be a finite number > 0, got {value!r}")
+        check_positive("SpikeGate: ", max_rate=max_rate, noise_band=noise_band, max_abs=max_abs)
         self.max_rate = float(max_rate)
         self.noise_band = float(noise_band)
         self.max_abs = float(max_abs)

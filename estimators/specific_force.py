@@ -49,7 +49,7 @@ from typing import Any, ClassVar
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator, reference_and_prior_mass
-from .filters import LowPass2, SpikeGate, capped_dt, kalman_update_2x2_h1, repair_pd_2x2
+from .filters import LowPass2, SpikeGate, capped_dt, check_positive, kalman_update_2x2_h1, repair_pd_2x2
 from .regression_front_end import RegressionFrontEnd
 
 __all__ = ["SpecificForceKF"]
@@ -105,12 +105,9 @@ class SpecificForceKF(Estimator):
                  max_slope_spread_rad: float = 0.025, chain_length_m: float = 2.0,
                  sway_damping_ratio: float = 0.05, hook_mass_kg: float = 300.0, **options: Any) -> None:
         super().__init__(vehicle, **options)
-        for name, value in (("speed_std_mps", speed_std_mps), ("accel_std_mps2", accel_std_mps2),
-                            ("grade_rate_std_rps", grade_rate_std_rps), ("cutoff_hz", cutoff_hz),
-                            ("mu_prior_std", mu_prior_std), ("residual_std_mps2", residual_std_mps2),
-                            ("gate_sigma", gate_sigma)):
-            if not (value > 0.0 and math.isfinite(value)):
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        check_positive(speed_std_mps=speed_std_mps, accel_std_mps2=accel_std_mps2,
+                       grade_rate_std_rps=grade_rate_std_rps, cutoff_hz=cutoff_hz, mu_prior_std=mu_prior_std,
+                       residual_std_mps2=residual_std_mps2, gate_sigma=gate_sigma)
         v = self.vehicle
         # where the train's mass lies: the drive section (with the sensors) carries front_mass_kg at the sensors'
         # position; the rest (lifting beams, rear cab, the load) sits rear_offset_m behind it

@@ -15,6 +15,7 @@ from estimators.filters import (
     check_dt,
     check_dt_non_negative,
     check_int_option,
+    check_positive,
     check_number_options,
     dynamic_forgetting,
     hold_last_valid,
@@ -149,3 +150,11 @@ def test_check_int_option() -> None:
     for bad in (True, 1.5, "3", None):
         with pytest.raises(_OptionError, match=r"^seed must be an integer, got"):
             check_int_option("seed", bad, _OptionError)
+
+
+def test_check_positive_names_the_first_bad_value() -> None:
+    check_positive(a=1.0, b=2)
+    with pytest.raises(ValueError, match=r"^b must be a finite number > 0, got nan$"):
+        check_positive(a=1.0, b=math.nan, c=0.0)
+    with pytest.raises(ValueError, match=r"^X: c must be a finite number > 0, got 0.0$"):
+        check_positive("X: ", c=0.0)

@@ -224,6 +224,14 @@ def _figures(rows: list[dict], names: list[str], out: Path) -> list[Path]:
 
     g = _group(rows)
     paths = []
+
+    def save(fig, name: str) -> None:
+        fig.tight_layout()
+        p = out / name
+        fig.savefig(p, dpi=90)
+        plt.close(fig)
+        paths.append(p)
+
     fig, axes = plt.subplots(1, 2, figsize=(14, 5.5))
     for ax, key, target, label in (
         (axes[0], "mass_max_pct", TARGET_MASS_MAX_PCT, "mass: max |error| after settling (%)"),
@@ -253,11 +261,7 @@ def _figures(rows: list[dict], names: list[str], out: Path) -> list[Path]:
     axes[0].plot([], [], "s", color="tab:orange", alpha=0.6, label="(b) point-mass world, random runs")
     axes[0].legend(fontsize=8, loc="upper left")
     fig.suptitle("Estimators untuned on two worlds: per-run errors (box 25-75 %, whiskers 5-95 %)")
-    fig.tight_layout()
-    p = out / "generalisation.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    paths.append(p)
+    save(fig, "generalisation.png")
 
     fig, ax = plt.subplots(figsize=(11, 4.5))
     width = 0.2
@@ -283,11 +287,7 @@ def _figures(rows: list[dict], names: list[str], out: Path) -> list[Path]:
     ax.set_ylim(0, 105)
     ax.legend(fontsize=7, ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.35))
     ax.set_title("Do the reported uncertainties mean something? (random runs of both worlds)")
-    fig.tight_layout()
-    p = out / "consistency.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    paths.append(p)
+    save(fig, "consistency.png")
     return paths
 
 

@@ -224,16 +224,9 @@ class AUPFEstimator(Estimator):
         rim = omega * r
         return np.where(i >= 0.0, rim * (1.0 - i), rim / (1.0 + i))
 
-    def update(
-        self,
-        torque_nm: float,
-        speed_mps: float,
-        accel_mps2: float,
-        dt_s: float,
-        motor_speed_radps: float = math.nan,
-        gyro_radps: float = math.nan,
-        accel_normal_mps2: float = math.nan,
-    ) -> Estimate:
+    def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
+               motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
+               accel_normal_mps2: float = math.nan) -> Estimate:
         """Process one sample (torque, ground speed and motor speed are used); NaN = missing (predict only).
 
         A value beyond :class:`~estimators.input_limits.InputLimits` (``inf``, ``1e300``) counts as missing too. A

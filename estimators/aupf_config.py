@@ -5,11 +5,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from uuom_core.vehicle import VehicleParams
 
-from .filters import check_number_options
+from .filters import check_int_option, check_number_options
 
 
 class AUPFConfigError(ValueError):
@@ -91,11 +89,8 @@ class AUPFConfig:
     radius_model_std_m: float | None = None
 
     def __post_init__(self) -> None:
-        n = self.n_particles
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
-            raise AUPFConfigError(f"n_particles must be an integer >= 2, got {n!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)):
-            raise AUPFConfigError(f"seed must be an integer, got {self.seed!r}")
+        check_int_option("n_particles", self.n_particles, AUPFConfigError, minimum=2)
+        check_int_option("seed", self.seed, AUPFConfigError)
         positive = ["gear_ratio", "initial_radius_std_m", "radius_process_std_m_per_sqrt_s", "slip_process_std",
                     "macro_slip_process_std", "slip_time_constant_s", "creep_slip", "adhesion",
                     "slip_recovery_rate_hz", "max_slip", "speed_std_mps", "motor_speed_std_radps", "alpha",

@@ -74,6 +74,18 @@ def first_step_dts(t_s: np.ndarray, t_prev_s: float | None = None) -> np.ndarray
     return np.diff(t_s, prepend=t_prev_s)
 
 
+def reference_and_prior_mass(vehicle: VehicleParams, prior_mass_kg: float | None) -> tuple[float, float]:
+    """The reference mass (empty plus half the rated load) and the prior mass (``prior_mass_kg``, else the reference).
+
+    Raises ``ValueError`` for a prior outside ``[empty_mass_kg, max_mass_kg]``.
+    """
+    m_ref = vehicle.empty_mass_kg + 0.5 * vehicle.rated_load_kg
+    prior = float(m_ref if prior_mass_kg is None else prior_mass_kg)
+    if not (vehicle.empty_mass_kg <= prior <= vehicle.max_mass_kg):
+        raise ValueError(f"prior_mass_kg must lie in [{vehicle.empty_mass_kg}, {vehicle.max_mass_kg}], got {prior}")
+    return m_ref, prior
+
+
 _OUTPUT_FIELD = {"mass": "mass", "slope": "slope", "slip": "slip_ratio", "radius": "drive_radius_m"}
 
 
@@ -192,4 +204,4 @@ class Estimator(ABC):
         return EstimateSeries(t.copy(), out_m, out_s, out_ms, out_ss, extras)
 
 
-__all__ = ["Estimate", "EstimateSeries", "Estimator", "first_step_dts"]
+__all__ = ["Estimate", "EstimateSeries", "Estimator", "first_step_dts", "reference_and_prior_mass"]

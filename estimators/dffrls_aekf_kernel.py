@@ -40,16 +40,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, N_S, N_HIST_MAX,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
-
-try:  # numba is a dependency (pyproject.toml); the fallback keeps the package importable without it
-    from numba import njit
-except ImportError:  # pragma: no cover
-    def njit(*args, **kwargs):  # type: ignore[no-redef]
-        if args and callable(args[0]):
-            return args[0]
-        return lambda f: f
-
-HAVE_NUMBA = njit.__module__.startswith("numba")
+from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
 
 _kf_update = njit(cache=True, inline="always")(filters.kalman_update_2x2_h1)
 _repair = njit(cache=True, inline="always")(filters.repair_pd_2x2)
@@ -114,15 +105,21 @@ def reset(S, H, C):
     H[:] = 0.0
 
 
-@njit(cache=True)
-def _restart_signals(S, H):
-    """After a data gap: the filters' held states no longer describe the motion."""
+@njit(cache=True, inline="always")
+def _restart_filters(S):
+    """Restart the signal low-passes at the next sample, forget the speed differences, stop the load pendulum."""
     for i in (LF_OK, LV_OK, LQ_OK, LA_OK, LS_OK, LC_OK, LL_OK):
         S[i] = 0.0
     S[PREV_VF] = math.nan
     S[PREV_VQ] = math.nan
     S[SWAY] = 0.0
     S[SWAY_RATE] = 0.0
+
+
+@njit(cache=True)
+def _restart_signals(S, H):
+    """After a data gap: the filters' held states no longer describe the motion."""
+    _restart_filters(S)
     S[T_VALID] = 0.0
     S[GT_LAST] = math.nan
     S[GV_LAST] = math.nan
@@ -273,12 +270,7 @@ def step(S, H, C, torque, speed, accel, dt):
     if T == T and z == z and S[T_MISSING] > 0.1:
         # first good sample after a dropout: restart the signal filters at it; a held input jumping to the new
         # value would read as an acceleration and kick the load pendulum, which then rings for tens of seconds
-        for i in (LF_OK, LV_OK, LQ_OK, LA_OK, LS_OK, LC_OK, LL_OK):
-            S[i] = 0.0
-        S[PREV_VF] = math.nan
-        S[PREV_VQ] = math.nan
-        S[SWAY] = 0.0
-        S[SWAY_RATE] = 0.0
+        _restart_filters(S)
     F = _lp(S, LF1, T / C[RADIUS] if T == T else math.nan, a)
     vf = _lp(S, LV1, z, a)
     if S[LV_OK] == 0.0:  # no valid speed yet
@@ -338,6 +330,9 @@ def step(S, H, C, torque, speed, accel, dt):
 
     # ---------------- mass layer: DFFRLS on the specific-force regression ----------------------------------------
     #   (F - m_rot a - M_rigid (a - a_load)) / M_ref = [a_load + g sin th_train, g cos th_train] . [c, d]
+    # The two-parameter RLS in Kalman form with the Schmidt update of estimators.rls._RLSMassBase._rls_step, written
+    # out here on purpose: the compiled step cannot call that method, and its variant differs (outlier gate, offset
+    # mode, >= bounds). The three-parameter fused step (fused_kernel.py) forgets and bounds the same way.
     h1 = a_load_f + g * sin_lp
     h2 = g * cos_lp if C[OFF_FORGET] == 0.0 else g
     c, dd = S[MC], S[MD]

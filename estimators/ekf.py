@@ -26,8 +26,8 @@ import numpy as np
 
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
-from .base import Estimate, Estimator
-from .filters import (MAX_STEP_S, SpikeGate, check_dt, joseph_update, kalman_update_2x2_h1, repair_pd,
+from .base import Estimate, Estimator, reference_and_prior_mass
+from .filters import (SpikeGate, capped_dt, check_positive, joseph_update, kalman_update_2x2_h1, repair_pd,
                       repair_pd_2x2)
 
 __all__ = ["SlopeEKF", "JointEKF"]
@@ -58,11 +58,9 @@ class SlopeEKF:
                  grade_rate_std_rps: float = 0.01, prior_slope_std_rad: float = 0.1, gate_sigma: float = 6.0,
                  relock_after: int = 40, running_resistance: float | None = None,
                  max_slope_rad: float | None = None) -> None:
-        for name, value in (("speed_std_mps", speed_std_mps), ("accel_model_std_mps2", accel_model_std_mps2),
-                            ("grade_rate_std_rps", grade_rate_std_rps), ("prior_slope_std_rad", prior_slope_std_rad),
-                            ("gate_sigma", gate_sigma)):
-            if not (value > 0.0 and math.isfinite(value)):
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        check_positive(speed_std_mps=speed_std_mps, accel_model_std_mps2=accel_model_std_mps2,
+                       grade_rate_std_rps=grade_rate_std_rps, prior_slope_std_rad=prior_slope_std_rad,
+                       gate_sigma=gate_sigma)
         self.r = vehicle.drive_wheel_radius_m
         self.m_rot = vehicle.rotating_mass_kg
         self.mu = float(vehicle.running_resistance if running_resistance is None else running_resistance)
@@ -199,18 +197,12 @@ class JointEKF(Estimator):
                  prior_mass_kg: float | None = None, gate_sigma: float = 6.0, **options: Any) -> None:
         super().__init__(vehicle, **options)
         v = self.vehicle
-        for name, value in (("speed_std_mps", speed_std_mps), ("accel_model_std_mps2", accel_model_std_mps2),
-                            ("grade_rate_std_rps", grade_rate_std_rps), ("mass_rate_std", mass_rate_std),
-                            ("gate_sigma", gate_sigma)):
-            if not (value > 0.0 and math.isfinite(value)):
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        check_positive(speed_std_mps=speed_std_mps, accel_model_std_mps2=accel_model_std_mps2,
+                       grade_rate_std_rps=grade_rate_std_rps, mass_rate_std=mass_rate_std, gate_sigma=gate_sigma)
         self.r = v.drive_wheel_radius_m
         self.m_rot = v.rotating_mass_kg
         self.mu = v.running_resistance
-        self.m_ref = v.empty_mass_kg + 0.5 * v.rated_load_kg
-        self.prior_mass = float(self.m_ref if prior_mass_kg is None else prior_mass_kg)
-        if not (v.empty_mass_kg <= self.prior_mass <= v.max_mass_kg):
-            raise ValueError(f"prior_mass_kg must lie in [{v.empty_mass_kg}, {v.max_mass_kg}], got {self.prior_mass}")
+        self.m_ref, self.prior_mass = reference_and_prior_mass(v, prior_mass_kg)
         self.c_min = self.m_ref / v.max_mass_kg
         self.c_max = self.m_ref / v.empty_mass_kg
         self.R = float(speed_std_mps) ** 2
@@ -236,9 +228,7 @@ class JointEKF(Estimator):
     def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
-        check_dt(dt_s)
-        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
-            dt_s = MAX_STEP_S
+        dt_s = capped_dt(dt_s)  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
         T = self.gate_torque(torque_nm, dt_s)
         if T == T:
             self.force = T / self.r

@@ -24,8 +24,11 @@ __all__ = [
     "repair_pd_2x2",
     "check_dt",
     "check_dt_non_negative",
+    "capped_dt",
     "MAX_STEP_S",
     "check_number_options",
+    "check_int_option",
+    "check_positive",
     "kalman_update_2x2_h1",
     "effective_dt",
     "hold_last_valid",
@@ -49,6 +52,13 @@ def check_dt_non_negative(dt_s: float, who: str) -> float:
 
 MAX_STEP_S = 1.0
 """Longest sample interval integrated as one step; a longer one is a data gap (see :func:`effective_dt`)."""
+
+
+def capped_dt(dt_s: float) -> float:
+    """:func:`check_dt`, then at most :data:`MAX_STEP_S`: a longer interval is a data gap, integrated as that long."""
+    if not (dt_s > 0.0 and dt_s < math.inf):
+        check_dt(dt_s)  # raises
+    return dt_s if dt_s <= MAX_STEP_S else MAX_STEP_S
 
 
 def effective_dt(dt_s: float) -> float:
@@ -89,6 +99,23 @@ def check_number_options(
     for key in non_negative:
         if values[key] < 0:
             raise error(f"{key} must be >= 0, got {values[key]!r}")
+
+
+def check_positive(prefix: str = "", /, **values: float) -> None:
+    """Raise ``ValueError`` naming the first of ``values`` that is not a finite number > 0 (message after ``prefix``)."""
+    for name, value in values.items():
+        if not (value > 0.0 and math.isfinite(value)):
+            raise ValueError(f"{prefix}{name} must be a finite number > 0, got {value!r}")
+
+
+def check_int_option(name: str, value: object, error: type[Exception], minimum: int | None = None) -> None:
+    """Validate an integer option (``int`` or ``np.integer``, never ``bool``; ``>= minimum`` when given), raising
+    ``error`` with a message that names it."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or (
+        minimum is not None and value < minimum
+    ):
+        bound = "" if minimum is None else f" >= {minimum}"
+        raise error(f"{name} must be an integer{bound}, got {value!r}")
 
 
 def hold_last_valid(x: np.ndarray) -> np.ndarray:
@@ -190,9 +217,7 @@ class SpikeGate:
     __slots__ = ("max_rate", "noise_band", "max_abs", "relock_after", "last", "rejected", "total_rejected")
 
     def __init__(self, max_rate: float, noise_band: float, max_abs: float, relock_after: int = 40) -> None:
-        for name, value in (("max_rate", max_rate), ("noise_band", noise_band), ("max_abs", max_abs)):
-            if not (value > 0.0 and math.isfinite(value)):
-                raise ValueError(f"SpikeGate: {name} must be a finite number > 0, got {value!r}")
+        check_positive("SpikeGate: ", max_rate=max_rate, noise_band=noise_band, max_abs=max_abs)
         self.max_rate = float(max_rate)
         self.noise_band = float(noise_band)
         self.max_abs = float(max_abs)

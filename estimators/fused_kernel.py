@@ -10,14 +10,7 @@ from uuom_core.vehicle import G_MPS2
 from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MB, MC, MD, MIN_ACC, MU_MAX,
                                  N_MASS, OFF_FORGET, P0_B, P0_C, P0_D, PB, PC, PCB, PCD, PD, PDB, Q_C, R_M, RES_VAR,
                                  SIGMA)
-
-try:
-    from numba import njit
-except ImportError:  # pragma: no cover
-    def njit(*args, **kwargs):  # type: ignore[no-redef]
-        if args and callable(args[0]):
-            return args[0]
-        return lambda f: f
+from .numba_shim import njit
 
 __all__ = ["fused_mass_step"]
 
@@ -43,6 +36,8 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
     lm = 1.0 - C[MASS_FORGET] * (1.0 - lam)
     ld = 1.0 - C[OFF_FORGET] * (1.0 - lam)
     lb = lm
+    # vector forgetting bounded by the prior: the two-parameter step of dffrls_aekf_kernel with a third parameter,
+    # written out for the compiled loop
     if p11 / lm >= C[P0_C]:
         lm = 1.0
     if p22 / ld >= C[P0_D]:

@@ -283,16 +283,9 @@ class MMAEEstimator(Estimator):
         self._estimate = e
         return e
 
-    def update(
-        self,
-        torque_nm: float,
-        speed_mps: float,
-        accel_mps2: float,
-        dt_s: float,
-        motor_speed_radps: float = math.nan,
-        gyro_radps: float = math.nan,
-        accel_normal_mps2: float = math.nan,
-    ) -> Estimate:
+    def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
+               motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
+               accel_normal_mps2: float = math.nan) -> Estimate:
         """Process one sample; NaN inputs are treated as missing (``accel_mps2`` is the specific force).
 
         A value beyond :class:`~estimators.input_limits.InputLimits` (``inf``, ``1e300``) counts as missing too. A

@@ -9,7 +9,7 @@ import numpy as np
 
 from uuom_core.vehicle import VehicleParams
 
-from .filters import check_number_options
+from .filters import check_int_option, check_number_options
 
 
 class MMAEConfigError(ValueError):
@@ -90,8 +90,7 @@ class MMAEConfig:
 
     def __post_init__(self) -> None:
         n = self.n_models
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
-            raise MMAEConfigError(f"n_models must be an integer >= 2, got {n!r}")
+        check_int_option("n_models", n, MMAEConfigError, minimum=2)
         positive = ("speed_std_mps", "accel_std_mps2", "accel_process_std_mps2", "slope_process_floor_radps",
                     "initial_slope_std_rad", "initial_curvature_std_rad_per_m", "initial_speed_std_mps",
                     "smooth_speed_mps", "history_step_m", "gate_nis")

@@ -23,15 +23,8 @@ import numpy as np
 
 from uuom_core.vehicle import G_MPS2
 
-try:  # numba is a dependency (pyproject.toml); the fallback keeps the package importable without it
-    from numba import njit
-except ImportError:  # pragma: no cover
-    def njit(*args, **kwargs):  # type: ignore[no-redef]
-        if args and callable(args[0]):
-            return args[0]
-        return lambda f: f
+from .numba_shim import HAVE_NUMBA, njit
 
-HAVE_NUMBA = njit.__module__.startswith("numba")
 _LOG_2PI = math.log(2.0 * math.pi)
 
 # per-model constant arrays, rows of the (6, n) matrix from pack_constants

@@ -66,52 +66,52 @@ def _names(rows: list[dict]) -> list[str]:
     return list(dict.fromkeys(r["estimator"] for r in rows))
 
 
-def _generalisation_table(rows: list[dict], names: list[str]) -> list[str]:
+def _per_world(rows: list[dict], names: list[str], worlds: tuple[tuple[str, str], ...]):
+    """``(name, world label, its rows)`` for every estimator and ``(group, label)`` in ``worlds`` that has runs."""
     g = _group(rows)
+    for name in names:
+        for grp, world in worlds:
+            rs = g.get((grp, name), [])
+            if rs:
+                yield name, world, rs
+
+
+def _generalisation_table(rows: list[dict], names: list[str]) -> list[str]:
     out = [
         "| estimator | world | runs | mass max error %: median / p95 / max | slope RMSE ° (train-averaged): "
         "median / p95 / max | slope RMSE ° (under the sensors): p95 | meets p95 targets |",
         "| --- | --- | ---: | --- | --- | --- | --- |",
     ]
-    for name in names:
-        for grp, world in (("plant", "(a) plant"), ("point", "(b) point mass")):
-            rs = g.get((grp, name), [])
-            if not rs:
-                continue
-            m = distribution(_col(rs, "mass_max_pct"))
-            s = distribution(_col(rs, "slope_train_rmse_deg"))
-            sl = distribution(_col(rs, "slope_rmse_deg"))
-            ok_m = m["n"] > 0 and m["p95"] <= TARGET_MASS_MAX_PCT
-            ok_s = s["n"] > 0 and s["p95"] <= TARGET_SLOPE_RMSE_DEG
-            verdict = ("mass " + ("yes" if ok_m else "no") if m["n"] else "mass –") + ", slope " + (
-                ("yes" if ok_s else "no") if s["n"] else "–")
-            out.append(
-                f"| `{name}` | {world} | {len(rs)} | {_f(m['median'])} / {_f(m['p95'])} / {_f(m['max'])} | "
-                f"{_f(s['median'], 3)} / {_f(s['p95'], 3)} / {_f(s['max'], 3)} | {_f(sl['p95'], 3)} | {verdict} |")
+    for name, world, rs in _per_world(rows, names, (("plant", "(a) plant"), ("point", "(b) point mass"))):
+        m = distribution(_col(rs, "mass_max_pct"))
+        s = distribution(_col(rs, "slope_train_rmse_deg"))
+        sl = distribution(_col(rs, "slope_rmse_deg"))
+        ok_m = m["n"] > 0 and m["p95"] <= TARGET_MASS_MAX_PCT
+        ok_s = s["n"] > 0 and s["p95"] <= TARGET_SLOPE_RMSE_DEG
+        verdict = ("mass " + ("yes" if ok_m else "no") if m["n"] else "mass –") + ", slope " + (
+            ("yes" if ok_s else "no") if s["n"] else "–")
+        out.append(
+            f"| `{name}` | {world} | {len(rs)} | {_f(m['median'])} / {_f(m['p95'])} / {_f(m['max'])} | "
+            f"{_f(s['median'], 3)} / {_f(s['p95'], 3)} / {_f(s['max'], 3)} | {_f(sl['p95'], 3)} | {verdict} |")
     return out
 
 
 def _consistency_table(rows: list[dict], names: list[str]) -> list[str]:
-    g = _group(rows)
     out = [
         "| estimator | world | mass settled to 2 % by the end (% runs) / median settling s | mass NEES in χ² band "
         "/ σ too wide / too narrow (% runs) | truth within ±2σ, mass (mean %) | slope NEES in band / too wide / "
         "too narrow (% runs) | within ±2σ, slope (mean %) |",
         "| --- | --- | --- | --- | ---: | --- | ---: |",
     ]
-    for name in names:
-        for grp, world in (("plant", "plant"), ("point", "point mass")):
-            rs = g.get((grp, name), [])
-            if not rs:
-                continue
-            st = np.array(_col(rs, "mass_settle_s"))
-            st = st[~np.isnan(st)]
-            settled = 100.0 * float(np.mean(np.isfinite(st))) if st.size else math.nan
-            med = float(np.median(st[np.isfinite(st)])) if np.any(np.isfinite(st)) else math.nan
-            w_m = np.nanmean(_col(rs, "mass_within_2sigma")) * 100 if rs[0].get("provides_mass") else math.nan
-            w_s = np.nanmean(_col(rs, "slope_within_2sigma")) * 100 if rs[0].get("provides_slope") else math.nan
-            out.append(f"| `{name}` | {world} | {_f(settled, 0)} / {_f(med, 1)} | {_nees_split(rs, 'mass')} | "
-                       f"{_f(w_m, 0)} | {_nees_split(rs, 'slope')} | {_f(w_s, 0)} |")
+    for name, world, rs in _per_world(rows, names, (("plant", "plant"), ("point", "point mass"))):
+        st = np.array(_col(rs, "mass_settle_s"))
+        st = st[~np.isnan(st)]
+        settled = 100.0 * float(np.mean(np.isfinite(st))) if st.size else math.nan
+        med = float(np.median(st[np.isfinite(st)])) if np.any(np.isfinite(st)) else math.nan
+        w_m = np.nanmean(_col(rs, "mass_within_2sigma")) * 100 if rs[0].get("provides_mass") else math.nan
+        w_s = np.nanmean(_col(rs, "slope_within_2sigma")) * 100 if rs[0].get("provides_slope") else math.nan
+        out.append(f"| `{name}` | {world} | {_f(settled, 0)} / {_f(med, 1)} | {_nees_split(rs, 'mass')} | "
+                   f"{_f(w_m, 0)} | {_nees_split(rs, 'slope')} | {_f(w_s, 0)} |")
     return out
 
 
@@ -224,6 +224,14 @@ def _figures(rows: list[dict], names: list[str], out: Path) -> list[Path]:
 
     g = _group(rows)
     paths = []
+
+    def save(fig, name: str) -> None:
+        fig.tight_layout()
+        p = out / name
+        fig.savefig(p, dpi=90)
+        plt.close(fig)
+        paths.append(p)
+
     fig, axes = plt.subplots(1, 2, figsize=(14, 5.5))
     for ax, key, target, label in (
         (axes[0], "mass_max_pct", TARGET_MASS_MAX_PCT, "mass: max |error| after settling (%)"),
@@ -253,11 +261,7 @@ def _figures(rows: list[dict], names: list[str], out: Path) -> list[Path]:
     axes[0].plot([], [], "s", color="tab:orange", alpha=0.6, label="(b) point-mass world, random runs")
     axes[0].legend(fontsize=8, loc="upper left")
     fig.suptitle("Estimators untuned on two worlds: per-run errors (box 25-75 %, whiskers 5-95 %)")
-    fig.tight_layout()
-    p = out / "generalisation.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    paths.append(p)
+    save(fig, "generalisation.png")
 
     fig, ax = plt.subplots(figsize=(11, 4.5))
     width = 0.2
@@ -283,11 +287,7 @@ def _figures(rows: list[dict], names: list[str], out: Path) -> list[Path]:
     ax.set_ylim(0, 105)
     ax.legend(fontsize=7, ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.35))
     ax.set_title("Do the reported uncertainties mean something? (random runs of both worlds)")
-    fig.tight_layout()
-    p = out / "consistency.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    paths.append(p)
+    save(fig, "consistency.png")
     return paths
 
 

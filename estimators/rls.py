@@ -49,8 +49,8 @@ from typing import Any, ClassVar
 
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
-from .base import Estimate, Estimator
-from .filters import MAX_STEP_S, check_dt, repair_pd_2x2
+from .base import Estimate, Estimator, reference_and_prior_mass
+from .filters import capped_dt, repair_pd_2x2
 from .regression_front_end import RegressionFrontEnd
 
 __all__ = ["RegressionFrontEnd", "RLSMassEstimator", "FFRLSMassEstimator", "DFFRLSMassEstimator"]
@@ -93,10 +93,7 @@ class _RLSMassBase(Estimator):
         self.m_rot = v.rotating_mass_kg
         self.mass_min = v.empty_mass_kg
         self.mass_max = v.max_mass_kg
-        self.m_ref = v.empty_mass_kg + 0.5 * v.rated_load_kg
-        self.prior_mass = float(self.m_ref if prior_mass_kg is None else prior_mass_kg)
-        if not (self.mass_min <= self.prior_mass <= self.mass_max):
-            raise ValueError(f"prior_mass_kg must lie in [{self.mass_min}, {self.mass_max}], got {self.prior_mass}")
+        self.m_ref, self.prior_mass = reference_and_prior_mass(v, prior_mass_kg)
         pstd = 0.5 * (self.mass_max - self.mass_min) if prior_mass_std_kg is None else float(prior_mass_std_kg)
         if not (pstd > 0):
             raise ValueError(f"prior_mass_std_kg must be > 0, got {prior_mass_std_kg!r}")
@@ -196,9 +193,7 @@ class _RLSMassBase(Estimator):
     def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
-        check_dt(dt_s)
-        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
-            dt_s = MAX_STEP_S
+        dt_s = capped_dt(dt_s)  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
         if self.front.step(torque_nm, speed_mps, dt_s):
             self._rls_step()
         return self.estimate

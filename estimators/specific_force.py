@@ -48,8 +48,8 @@ from typing import Any, ClassVar
 
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
-from .base import Estimate, Estimator
-from .filters import MAX_STEP_S, LowPass2, SpikeGate, check_dt, kalman_update_2x2_h1, repair_pd_2x2
+from .base import Estimate, Estimator, reference_and_prior_mass
+from .filters import LowPass2, SpikeGate, capped_dt, check_positive, kalman_update_2x2_h1, repair_pd_2x2
 from .regression_front_end import RegressionFrontEnd
 
 __all__ = ["SpecificForceKF"]
@@ -105,12 +105,9 @@ class SpecificForceKF(Estimator):
                  max_slope_spread_rad: float = 0.025, chain_length_m: float = 2.0,
                  sway_damping_ratio: float = 0.05, hook_mass_kg: float = 300.0, **options: Any) -> None:
         super().__init__(vehicle, **options)
-        for name, value in (("speed_std_mps", speed_std_mps), ("accel_std_mps2", accel_std_mps2),
-                            ("grade_rate_std_rps", grade_rate_std_rps), ("cutoff_hz", cutoff_hz),
-                            ("mu_prior_std", mu_prior_std), ("residual_std_mps2", residual_std_mps2),
-                            ("gate_sigma", gate_sigma)):
-            if not (value > 0.0 and math.isfinite(value)):
-                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        check_positive(speed_std_mps=speed_std_mps, accel_std_mps2=accel_std_mps2,
+                       grade_rate_std_rps=grade_rate_std_rps, cutoff_hz=cutoff_hz, mu_prior_std=mu_prior_std,
+                       residual_std_mps2=residual_std_mps2, gate_sigma=gate_sigma)
         v = self.vehicle
         # where the train's mass lies: the drive section (with the sensors) carries front_mass_kg at the sensors'
         # position; the rest (lifting beams, rear cab, the load) sits rear_offset_m behind it
@@ -131,10 +128,7 @@ class SpecificForceKF(Estimator):
         self.max_slope = math.radians(v.max_grade_deg + 5.0)
         self.m_rot = v.rotating_mass_kg
         self.mu0 = v.running_resistance
-        self.m_ref = v.empty_mass_kg + 0.5 * v.rated_load_kg
-        self.prior_mass = float(self.m_ref if prior_mass_kg is None else prior_mass_kg)
-        if not (v.empty_mass_kg <= self.prior_mass <= v.max_mass_kg):
-            raise ValueError(f"prior_mass_kg must lie in [{v.empty_mass_kg}, {v.max_mass_kg}], got {self.prior_mass}")
+        self.m_ref, self.prior_mass = reference_and_prior_mass(v, prior_mass_kg)
         self.c_min = v.empty_mass_kg / self.m_ref
         self.c_max = v.max_mass_kg / self.m_ref
         c0 = self.prior_mass / self.m_ref
@@ -185,10 +179,7 @@ class SpecificForceKF(Estimator):
     def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
-        if not (dt_s > 0.0 and dt_s < math.inf):
-            check_dt(dt_s)
-        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
-            dt_s = MAX_STEP_S
+        dt_s = capped_dt(dt_s)  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
         f = self.gate_f(accel_mps2, dt_s)
         z = self.gate_v(speed_mps, dt_s)
         self._slope_step(f, z, dt_s)

@@ -25,7 +25,7 @@ from uuom_core.vehicle import VehicleParams
 
 from .base import Estimate, Estimator
 from .ekf import SlopeEKF
-from .filters import MAX_STEP_S, check_dt
+from .filters import capped_dt
 from .rls import RLSMassEstimator, _RLSMassBase
 
 __all__ = ["RLSEKF"]
@@ -57,10 +57,7 @@ class _TwoLayer(Estimator):
     def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
-        if not (dt_s > 0.0 and dt_s < math.inf):
-            check_dt(dt_s)
-        if dt_s > MAX_STEP_S:  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
-            dt_s = MAX_STEP_S
+        dt_s = capped_dt(dt_s)  # a data gap: integrate at most MAX_STEP_S (the front end restarts)
         ml = self.mass_layer
         if ml.front.step(torque_nm, speed_mps, dt_s):
             ml._rls_step()

@@ -33,9 +33,10 @@ import time
 import numpy as np
 
 from estimators.metrics import error_after_settling
+from uuom_core.trace import SENSOR_COLUMNS
 
 DEFAULT_ESTIMATORS = "none,dffrls-aekf@before,dffrls-aekf,sf-kf@before,sf-kf"
-SENSOR_KEYS = ("torque_nm", "speed_mps", "accel_mps2", "motor_speed_radps", "gyro_radps", "accel_normal_mps2")
+SENSOR_KEYS = SENSOR_COLUMNS
 
 
 def _seeds(spec: str) -> list[int]:

@@ -137,13 +137,8 @@ def test_reported_std_covers_the_error() -> None:
     assert np.mean(i_err < 3.0 * i_std + 0.005) > 0.9
 
 
-def test_missing_samples_and_standstill_never_give_nan() -> None:
-    trace = _slip_signal(seed=5, duration_s=15.0)
-    rng = np.random.default_rng(1)
-    for name in ("torque_nm", "speed_mps", "motor_speed_radps"):
-        col = trace[name].copy()
-        col[rng.random(len(col)) < 0.2] = np.nan
-        trace.columns[name] = col
+def test_missing_samples_and_standstill_never_give_nan(drop_samples) -> None:
+    trace = drop_samples(_slip_signal(seed=5, duration_s=15.0), ("torque_nm", "speed_mps", "motor_speed_radps"), 1)
     est = AUPFEstimator(n_particles=32)
     series = est.run(trace)
     for arr in series.extras.values():

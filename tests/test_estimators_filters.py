@@ -9,9 +9,13 @@ import pytest
 
 from estimators.filters import (
     LowPass2,
+    MAX_STEP_S,
     SpikeGate,
+    capped_dt,
     check_dt,
     check_dt_non_negative,
+    check_int_option,
+    check_positive,
     check_number_options,
     dynamic_forgetting,
     hold_last_valid,
@@ -93,6 +97,15 @@ def test_check_dt() -> None:
             check_dt(bad)
 
 
+def test_capped_dt() -> None:
+    assert capped_dt(0.005) == 0.005
+    assert capped_dt(MAX_STEP_S) == MAX_STEP_S
+    assert capped_dt(1e300) == MAX_STEP_S  # a data gap
+    for bad in (0.0, -1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="dt_s must be a finite number > 0"):
+            capped_dt(bad)
+
+
 def test_check_dt_non_negative() -> None:
     assert check_dt_non_negative(0.0, "x") == 0.0
     assert check_dt_non_negative(0.005, "x") == 0.005
@@ -127,3 +140,21 @@ def test_hold_last_valid() -> None:
     y = hold_last_valid(np.array([np.nan, np.inf, 4.0, np.nan, 5.0, -np.inf]))
     assert y.tolist() == [4.0, 4.0, 4.0, 4.0, 5.0, 5.0]  # leading gap takes the first valid value
     assert hold_last_valid(np.full(3, np.nan)).tolist() == [0.0, 0.0, 0.0]
+
+
+def test_check_int_option() -> None:
+    check_int_option("n", 2, _OptionError, minimum=2)
+    check_int_option("seed", np.int64(-3), _OptionError)
+    with pytest.raises(_OptionError, match=r"n must be an integer >= 2, got 1"):
+        check_int_option("n", 1, _OptionError, minimum=2)
+    for bad in (True, 1.5, "3", None):
+        with pytest.raises(_OptionError, match=r"^seed must be an integer, got"):
+            check_int_option("seed", bad, _OptionError)
+
+
+def test_check_positive_names_the_first_bad_value() -> None:
+    check_positive(a=1.0, b=2)
+    with pytest.raises(ValueError, match=r"^b must be a finite number > 0, got nan$"):
+        check_positive(a=1.0, b=math.nan, c=0.0)
+    with pytest.raises(ValueError, match=r"^X: c must be a finite number > 0, got 0.0$"):
+        check_positive("X: ", c=0.0)

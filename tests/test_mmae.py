@@ -142,13 +142,8 @@ def test_recovers_after_loading_at_a_station() -> None:
     assert est.probabilities.min() >= 0.99e-6
 
 
-def test_missing_samples_predict_only_and_never_nan() -> None:
-    trace = _train_signal(8000.0, seed=4, duration_s=20.0)
-    rng = np.random.default_rng(0)
-    for name in ("torque_nm", "speed_mps", "accel_mps2"):
-        col = trace[name].copy()
-        col[rng.random(len(col)) < 0.2] = np.nan
-        trace.columns[name] = col
+def test_missing_samples_predict_only_and_never_nan(drop_samples) -> None:
+    trace = drop_samples(_train_signal(8000.0, seed=4, duration_s=20.0), ("torque_nm", "speed_mps", "accel_mps2"), 0)
     est = MMAEEstimator(**POINT_MASS)
     series = est.run(trace)
     for arr in (series.mass_kg, series.slope_rad, series.mass_std_kg, series.slope_std_rad):

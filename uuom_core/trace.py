@@ -43,6 +43,16 @@ EXTRA_COLUMNS: tuple[str, ...] = (
 
 TRUTH_COLUMNS: tuple[str, ...] = ("mass_kg", "slope_deg")
 
+SENSOR_COLUMNS: tuple[str, ...] = (
+    "torque_nm",
+    "speed_mps",
+    "accel_mps2",
+    "motor_speed_radps",
+    "gyro_radps",
+    "accel_normal_mps2",
+)
+"""The measured channels (what the simulated sensors report), in the order of ``Estimator.update``'s arguments."""
+
 
 @dataclass
 class Trace:
@@ -370,6 +380,7 @@ __all__ = [
     "EXTRA_COLUMNS",
     "OPTIONAL_COLUMNS",
     "REQUIRED_COLUMNS",
+    "SENSOR_COLUMNS",
     "DROPOUT_WARN_S",
     "MAX_GAP_S",
     "PLAUSIBLE_ABS_MAX",

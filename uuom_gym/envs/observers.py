@@ -13,16 +13,11 @@ from typing import Any, Mapping
 import numpy as np
 
 from uuom_core.limits import speed_limit_mps
+from uuom_core.trace import SENSOR_COLUMNS
 from uuom_core.vehicle import VehicleParams
 
-SENSOR_KEYS: tuple[str, ...] = (
-    "torque_nm",
-    "speed_mps",
-    "accel_mps2",
-    "motor_speed_radps",
-    "gyro_radps",
-    "accel_normal_mps2",
-)
+SENSOR_KEYS: tuple[str, ...] = SENSOR_COLUMNS
+"""The sensor channels of a policy step, in the order of ``Estimator.update``'s arguments."""
 
 
 class UnknownObserverError(ValueError):

@@ -154,6 +154,19 @@ def make_run(spec: RunSpec) -> Trace:
     return tr
 
 
+def _fault_options(kind: str) -> dict:
+    """The fault of ``kind`` (one of :data:`FAULT_KINDS`) as keyword arguments, the same in both worlds."""
+    options = {
+        "dropouts": {"dropout_prob": 0.05},
+        "spikes": {"spike_prob": 0.005},
+        "bias-drift": {"bias_drift_per_s": {"accel_mps2": 0.002, "torque_nm": 5.0}},
+        "stuck": {"stuck_channel": "speed_mps", "stuck_start_s": FAULT_START_S, "stuck_duration_s": FAULT_LEN_S},
+    }
+    if kind not in options:
+        raise ValueError(f"unknown fault {kind!r}; known: {', '.join(FAULT_KINDS)}")
+    return options[kind]
+
+
 # --- the pymunk plant ------------------------------------------------------------------------------------------
 
 def _plant_faults(kind: str):
@@ -161,15 +174,10 @@ def _plant_faults(kind: str):
 
     if kind == "":
         return None
-    if kind == "dropouts":
-        return FaultConfig(dropout_prob=0.05)
+    options = _fault_options(kind)
     if kind == "spikes":
-        return FaultConfig(spike_prob=0.005, spike_size=2.0)
-    if kind == "bias-drift":
-        return FaultConfig(bias_drift_per_s={"accel_mps2": 0.002, "torque_nm": 5.0})
-    if kind == "stuck":
-        return FaultConfig(stuck_channel="speed_mps", stuck_start_s=FAULT_START_S, stuck_duration_s=FAULT_LEN_S)
-    raise ValueError(f"unknown fault {kind!r}; known: {', '.join(FAULT_KINDS)}")
+        options["spike_size"] = 2.0  # in units of the plant sensors' SPIKE_SCALE
+    return FaultConfig(**options)
 
 
 def _plant_scenario(spec: RunSpec) -> Trace:
@@ -233,15 +241,7 @@ def _random_plant(spec: RunSpec) -> Trace:
 def _point_faults(kind: str):
     from uuom_gym.sim.point_mass import PointMassFaults
 
-    if kind == "dropouts":
-        return PointMassFaults(dropout_prob=0.05)
-    if kind == "spikes":
-        return PointMassFaults(spike_prob=0.005)
-    if kind == "bias-drift":
-        return PointMassFaults(bias_drift_per_s={"accel_mps2": 0.002, "torque_nm": 5.0})
-    if kind == "stuck":
-        return PointMassFaults(stuck_channel="speed_mps", stuck_start_s=FAULT_START_S, stuck_duration_s=FAULT_LEN_S)
-    raise ValueError(f"unknown fault {kind!r}; known: {', '.join(FAULT_KINDS)}")
+    return PointMassFaults(**_fault_options(kind))
 
 
 def _point_scenario(spec: RunSpec) -> Trace:

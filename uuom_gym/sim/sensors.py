@@ -25,17 +25,11 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
+from uuom_core.trace import SENSOR_COLUMNS
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
-CHANNELS: tuple[str, ...] = (
-    "torque_nm",
-    "speed_mps",
-    "accel_mps2",
-    "motor_speed_radps",
-    "gyro_radps",
-    "accel_normal_mps2",
-)
-"""Measured channels, in trace-column names."""
+CHANNELS: tuple[str, ...] = SENSOR_COLUMNS
+"""Measured channels, in trace-column names (:data:`uuom_core.trace.SENSOR_COLUMNS`)."""
 
 SPIKE_SCALE: dict[str, float] = {
     "torque_nm": 3000.0,

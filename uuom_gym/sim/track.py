@@ -86,19 +86,20 @@ class TrackProfile:
 
     def elevation_at(self, s_m: float | np.ndarray) -> float | np.ndarray:
         """Height of the rail above its start (m) at arc length ``s_m`` (extrapolated beyond the ends)."""
-        s = np.asarray(s_m, dtype=np.float64)
-        z = np.interp(s, self.s_m, self.z_m)
-        z = np.where(s < 0.0, s * math.sin(self.slope_rad[0]), z)
-        z = np.where(s > self.length_m, self.z_m[-1] + (s - self.length_m) * math.sin(self.slope_rad[-1]), z)
-        return float(z) if np.ndim(z) == 0 else z
+        return self._coordinate_at(s_m, self.z_m, math.sin)
 
     def x_at(self, s_m: float | np.ndarray) -> float | np.ndarray:
         """Horizontal coordinate of the rail (m) at arc length ``s_m`` (extrapolated beyond the ends)."""
+        return self._coordinate_at(s_m, self.x_m, math.cos)
+
+    def _coordinate_at(self, s_m: float | np.ndarray, coord: np.ndarray, component) -> float | np.ndarray:
+        """``coord`` (``x_m`` or ``z_m``) at arc length ``s_m``, continued straight along the end slopes beyond the
+        ends (``component``: ``math.cos`` for x, ``math.sin`` for z)."""
         s = np.asarray(s_m, dtype=np.float64)
-        x = np.interp(s, self.s_m, self.x_m)
-        x = np.where(s < 0.0, s * math.cos(self.slope_rad[0]), x)
-        x = np.where(s > self.length_m, self.x_m[-1] + (s - self.length_m) * math.cos(self.slope_rad[-1]), x)
-        return float(x) if np.ndim(x) == 0 else x
+        c = np.interp(s, self.s_m, coord)
+        c = np.where(s < 0.0, s * component(self.slope_rad[0]), c)
+        c = np.where(s > self.length_m, coord[-1] + (s - self.length_m) * component(self.slope_rad[-1]), c)
+        return float(c) if np.ndim(c) == 0 else c
 
     def s_at_x(self, x_m: float | np.ndarray) -> float | np.ndarray:
         """Arc length at horizontal coordinate ``x_m`` (the rail never turns back, so this is unique)."""

@@ -1,7 +1,7 @@
 """``UUOM-Track-v0``: drive an underground overhead monorail from one station to the next, safely.
 
 See :class:`UUOMTrackEnv` for the full description (CartPole-style), ``docs/env.md`` for the user guide.
-(~450 lines on purpose: one env class whose 150-line docstring is its manual; observation, observers, actions,
+(~490 lines on purpose: one env class whose 150-line docstring is its manual; observation, observers, actions,
 safety, reward and shaping live in their own modules beside it.)
 """
 

@@ -27,7 +27,7 @@ from uuom_gym.envs.observation import (
 from uuom_gym.envs.reward import reward_terms, traction_energy_j
 from uuom_gym.envs.reward_shaping import potential, shaping_reward
 from uuom_gym.envs.safety import SafetyMonitor, SafetyParams
-from uuom_gym.envs.speed_target import SpeedTracker, target_speed_mps
+from uuom_gym.envs.speed_target import SpeedTracker, station_envelope_mps, target_speed_mps
 from uuom_core.limits import speed_limit_mps
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
@@ -178,7 +178,9 @@ class UUOMTrackEnv(gym.Env):
         self.step_s = self.ticks_per_step * self.dt_s
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
         self._tracker = (
-            SpeedTracker(self.vehicle, self.step_s) if cfg["action_mode"] == "speed_target" else None
+            SpeedTracker(self.vehicle, self.step_s, **cfg["speed_tracker"])
+            if cfg["action_mode"] == "speed_target"
+            else None
         )
         self._cautious_mps = 0.0
         self._target_mps: float | None = None
@@ -373,7 +375,10 @@ class UUOMTrackEnv(gym.Env):
         if mf is not None and abs(mf - th) > FEEDFORWARD_CROSS_CHECK_RAD:
             # The estimators' slope can be confidently wrong by 5-12 deg while braking (docs/agents.md).
             th = mf
-        self._target_mps = target_speed_mps(action, self._cautious_mps)
+        cap = self._cautious_mps
+        if self.config["speed_target_cap"] == "station":
+            cap = min(cap, station_envelope_mps(self.station_m - self.obs_builder.odometry_m))
+        self._target_mps = target_speed_mps(action, cap)
         return self._tracker.command(self._target_mps, self.obs_builder.speed_mps, m, th)
 
     def _potential(self) -> float:

@@ -145,7 +145,11 @@ class UUOMTrackEnv(gym.Env):
     ``action_mode="speed_target"`` (opt-in) reads the action as a target speed, ``(a + 1) / 2`` times the cautious
     limit (observation 13), tracked by a PI controller with a grade feed-forward from the estimates inside the env
     (:mod:`uuom_gym.envs.speed_target`): the action's zero then drives gently instead of coasting. Observation 2
-    and ``info["command"]`` stay the plant command; ``info["target_speed_mps"]`` is the target.
+    and ``info["command"]`` stay the plant command; ``info["target_speed_mps"]`` is the target. With
+    ``speed_target_cap="station"`` (opt-in) the target is ``(a + 1) / 2`` times ``min(cautious limit, braking
+    envelope to the station)``, the envelope ``sqrt(2 x 0.3 m/s^2 x (odometry distance to go - 0.5 m))``: every
+    action ``a > -1`` then stops at the station (a meta-action over a low-level tracker; the env gives the policy
+    the station envelope). ``speed_tracker`` overrides the tracker's gains (e.g. ``{"integral_clamp_m": 2.0}``).
 
     ## Version History
 
@@ -158,6 +162,11 @@ class UUOMTrackEnv(gym.Env):
       cost ~10^4 violations per km) and never arrived (docs/rl.md). Policies trained on rev. 1 do not load.
     * v0 (rev. 3, no id change, default behaviour unchanged): opt-in config ``action_mode="speed_target"``. Reason:
       bare PPO on rev. 2 held the brake at the start, the action's zero being "coast" (docs/rl.md §3, §6).
+    * v0 (rev. 4, no id change, default behaviour unchanged): opt-in configs ``speed_target_cap="station"`` and
+      ``speed_tracker``. Reason, measured (docs/rl.md §7): under rev. 3 every constant action overran the station
+      (the stop had to be timed by the policy inside a 3 m window, 2 500-8 000 steps into a heavy train's
+      episode), and the tracker's small integral stalled a 35 t train on a grade change and overshot the target in
+      a sag curve.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -80,3 +80,58 @@ def test_zero_action_drives_gently_in_speed_target_mode_and_coasts_by_default():
     pos_default, info_default = _advance_with_zero_action("command")
     assert pos_default < 1.0
     assert "target_speed_mps" not in info_default
+
+
+# --- rev. 4 options: speed_target_cap="station", speed_tracker (docs/rl.md §7) ---------------------------------
+def test_station_envelope():
+    from uuom_gym.envs.speed_target import ENVELOPE_DECEL_MPS2, ENVELOPE_STOP_OFFSET_M, station_envelope_mps
+
+    assert station_envelope_mps(ENVELOPE_STOP_OFFSET_M) == 0.0
+    assert station_envelope_mps(-5.0) == 0.0
+    d = 10.0
+    assert station_envelope_mps(d) == pytest.approx(np.sqrt(2.0 * ENVELOPE_DECEL_MPS2 * (d - ENVELOPE_STOP_OFFSET_M)))
+
+
+def test_new_config_defaults_and_bad_values():
+    cfg = make_config()
+    assert cfg["speed_target_cap"] == "cautious" and cfg["speed_tracker"] == {}
+    with pytest.raises(ConfigError, match="speed_target_cap"):
+        make_config(speed_target_cap="envelope")
+    with pytest.raises(ConfigError, match="unknown key"):
+        make_config(speed_tracker={"kp": 1.0})
+    with pytest.raises(ConfigError, match="speed_tracker"):
+        make_config(speed_tracker={"integral_clamp_m": -1.0})
+    assert make_config(speed_tracker={"integral_clamp_m": 2})["speed_tracker"] == {"integral_clamp_m": 2.0}
+
+
+def test_speed_tracker_overrides_reach_the_tracker():
+    env = gym.make("UUOM-Track-v0", action_mode="speed_target", speed_tracker={"integral_clamp_m": 2.0})
+    assert env.unwrapped._tracker.integral_clamp_m == 2.0
+    assert env.unwrapped._tracker.gain_per_s == SpeedTracker(DEFAULT_VEHICLE, 0.1).gain_per_s
+    env.close()
+
+
+def test_check_env_passes_with_station_cap():
+    env = gym.make("UUOM-Track-v0", action_mode="speed_target", speed_target_cap="station",
+                   speed_tracker={"integral_clamp_m": 2.0})
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+def test_station_cap_stops_a_full_speed_action_at_the_station():
+    # The point of the cap: a = +1 all the way arrives (the cautious cap alone overruns the station).
+    kw = dict(action_mode="speed_target", track_length_m=(50.0, 50.0), load_kg=0.0)
+    ends = {}
+    for cap in ("station", "cautious"):
+        env = gym.make("UUOM-Track-v0", speed_target_cap=cap, **kw)
+        _, info = env.reset(seed=3)
+        for _ in range(3000):
+            _, _, term, trunc, info = env.step(np.ones(1, np.float32))
+            if term or trunc:
+                break
+        env.close()
+        ends[cap] = info
+    assert ends["station"]["termination"] == "arrived", ends["station"]["termination"]
+    assert abs(ends["station"]["distance_to_go_m"]) <= 3.0
+    assert ends["cautious"]["termination"] == "overrun"
+    assert ends["station"]["target_speed_mps"] == 0.0

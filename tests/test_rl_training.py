@@ -1,5 +1,6 @@
 """Plain PPO from uuom-train's defaults (bare: no residual, no shield) trains, saves and reloads; the shipped
-policies under results/rl/policies load and drive an episode (no performance asserts: see docs/rl.md)."""
+policies under results/rl/policies load and drive an episode (no performance asserts, except that the policy of
+docs/rl.md §7, which meets the issue's floor on the 100 held-out tracks, arrives on one short held-out track)."""
 
 from __future__ import annotations
 
@@ -45,3 +46,14 @@ def test_shipped_policies_load_and_drive_one_episode():
         assert row["steps"] > 0 and row["termination"], row
         for key in ("cost", "trip_time_s", "distance_m"):
             assert math.isfinite(float(row[key])), (run.name, key, row[key])
+
+
+def test_station_cap_policy_arrives_on_a_short_held_out_track():
+    # docs/rl.md §7: bare PPO with action_mode="speed_target", speed_target_cap="station" (100/100 held out).
+    run = POLICIES / "ppo_bare_station_cap_300k_s0"
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["residual"] == 0.0 and cfg["shield"] is False
+    assert cfg["env_kwargs"]["speed_target_cap"] == "station"
+    env_kwargs = {**cfg["env_kwargs"], **SHORT}
+    row = run_episode(Task(str(run), "dffrls-aekf", 100_000, json.dumps(env_kwargs)))
+    assert row["termination"] == "arrived" and not row["overspeed_trip"], row

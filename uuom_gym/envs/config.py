@@ -49,6 +49,8 @@ def default_config() -> dict[str, Any]:
         "rollback_trip_m": 2.0,
         "idle_limit_s": 20.0,
         "action_mode": "command",
+        "speed_target_cap": "cautious",
+        "speed_tracker": {},
         # --- randomisation per reset(seed) ------------------------------------------------------------------
         "load_kg": None,
         "load_fraction_range": (0.0, 1.0),
@@ -127,6 +129,13 @@ CONFIG_DOCS: dict[str, str] = {
     "action_mode": "'command' (default: the action is the traction/brake fraction) or 'speed_target' (the action "
     "a is a target speed (a + 1) / 2 x the cautious limit, observation 13, tracked by a PI controller inside the "
     "env, uuom_gym.envs.speed_target): its zero drives gently instead of coasting (docs/rl.md).",
+    "speed_target_cap": "action_mode='speed_target' only: what a = +1 asks for. 'cautious' (default, rev. 3): the "
+    "cautious limit; 'station': min(cautious limit, braking envelope to the station), the envelope being "
+    "sqrt(2 x 0.3 m/s^2 x (odometry distance to go - 0.5 m)), so every action a > -1 stops at the station "
+    "(a meta-action over a low-level tracker, as in HighwayEnv: the env gives the policy the station envelope; "
+    "docs/rl.md §7).",
+    "speed_tracker": "action_mode='speed_target' only: overrides of the PI tracker's gains, keys gain_per_s, "
+    "integral_gain_per_s2, integral_clamp_m (uuom_gym.envs.speed_target.SpeedTracker; {} keeps its defaults).",
     "load_kg": "Fixed load (kg) instead of a random one; None draws it from load_fraction_range.",
     "load_fraction_range": "(low, high) load as a fraction of the rated load, drawn uniformly.",
     "running_resistance_range": "(low, high) true running-resistance coefficient mu, drawn uniformly.",
@@ -201,6 +210,27 @@ def _check_weights(cfg: dict[str, Any], key: str, names: tuple[str, ...], defaul
             raise ConfigError(f"config key '{key}': weight '{name}' must be a finite number >= 0, got {w!r}")
         merged[name] = float(w)
     cfg[key] = merged
+
+
+TRACKER_KEYS: tuple[str, ...] = ("gain_per_s", "integral_gain_per_s2", "integral_clamp_m")
+"""Keys of the config ``speed_tracker`` (fields of :class:`uuom_gym.envs.speed_target.SpeedTracker`)."""
+
+
+def _check_tracker(cfg: dict[str, Any]) -> None:
+    value = cfg["speed_tracker"]
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"config key 'speed_tracker' must be a dict with keys {', '.join(TRACKER_KEYS)}, got {value!r}")
+    unknown = sorted(set(value) - set(TRACKER_KEYS))
+    if unknown:
+        raise ConfigError(
+            f"config key 'speed_tracker': unknown key(s) {', '.join(unknown)}; known: {', '.join(TRACKER_KEYS)}"
+        )
+    out = {}
+    for name, w in value.items():
+        if not _is_number(w) or float(w) < 0:
+            raise ConfigError(f"config key 'speed_tracker': '{name}' must be a finite number >= 0, got {w!r}")
+        out[name] = float(w)
+    cfg["speed_tracker"] = out
 
 
 def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> dict[str, Any]:
@@ -281,6 +311,11 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
         raise ConfigError(
             f"config key 'action_mode' must be 'command' or 'speed_target', got {cfg['action_mode']!r}"
         )
+    if cfg["speed_target_cap"] not in ("cautious", "station"):
+        raise ConfigError(
+            f"config key 'speed_target_cap' must be 'cautious' or 'station', got {cfg['speed_target_cap']!r}"
+        )
+    _check_tracker(cfg)
     if cfg["load_kg"] is not None:
         _check_number(cfg, "load_kg", 0.0, 1e6)
     _check_range(cfg, "load_fraction_range", 0.0, 1.2)

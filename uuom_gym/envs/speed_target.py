@@ -26,6 +26,20 @@ G_MPS2 = 9.80665
 ACTION_MODES: tuple[str, ...] = ("command", "speed_target")
 """Values of the config key ``action_mode``."""
 
+ENVELOPE_DECEL_MPS2 = 0.3
+"""``speed_target_cap="station"``: deceleration of the braking envelope to the station (the shaping's stop curve,
+:data:`uuom_gym.envs.reward_shaping.STOP_DECEL_MPS2`; the service brake gives 3-7 m/s^2 on the level)."""
+
+ENVELOPE_STOP_OFFSET_M = 0.5
+"""``speed_target_cap="station"``: the envelope reaches 0 this far before the station (odometry): the tracker's
+lag carries the train a little further."""
+
+
+def station_envelope_mps(distance_to_go_m: float) -> float:
+    """``sqrt(2 a (d - d0)+)``: the highest speed from which the train still stops ``d0`` before the station."""
+    d = max(float(distance_to_go_m) - ENVELOPE_STOP_OFFSET_M, 0.0)
+    return math.sqrt(2.0 * ENVELOPE_DECEL_MPS2 * d)
+
 
 def target_speed_mps(action: float, cautious_limit_mps: float) -> float:
     """Target speed for an action in ``[-1, 1]``: ``(a + 1) / 2 * cautious_limit`` (clipped to ``[0, limit]``)."""
@@ -87,4 +101,4 @@ class SpeedTracker:
         return min(max(cmd, -1.0), 1.0)
 
 
-__all__ = ["ACTION_MODES", "SpeedTracker", "target_speed_mps"]
+__all__ = ["ACTION_MODES", "ENVELOPE_DECEL_MPS2", "ENVELOPE_STOP_OFFSET_M", "SpeedTracker", "station_envelope_mps", "target_speed_mps"]

@@ -14,7 +14,7 @@ less) both raise the speed limit the controller computes above the true one: the
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -146,7 +146,7 @@ def run_sensitivity(config: SensitivityConfig, progress: bool = True) -> list[di
     return _write(rows, config)
 
 
-def _write(rows: list[dict[str, Any]], config: SensitivityConfig) -> list[dict[str, Any]]:
+def _write(rows: list[dict[str, Any]], config: SensitivityConfig, note: str = "") -> list[dict[str, Any]]:
     summary = summarise_sensitivity(rows)
     out = Path(config.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -158,17 +158,25 @@ def _write(rows: list[dict[str, Any]], config: SensitivityConfig) -> list[dict[s
     (out / "summary.md").write_text(
         f"{config.controller}, oracle observer plus a set error, held-out seeds {seeds[0]}..{seeds[-1]} "
         f"({len(seeds)} tracks), {len(rows)} episodes.\n"
-        f"Command: `{cmd}`\n\n" + markdown(summary) + "\nFigure: sensitivity.png\n")
+        f"Command: `{cmd}`{note}\n\n" + markdown(summary) + "\nFigure: sensitivity.png\n")
     return summary
 
 
 def rebuild(config: SensitivityConfig) -> list[dict[str, Any]]:
     """Recompute the summary, table and figure from ``config.out/episodes.csv`` without running episodes."""
     rows = read_episodes(Path(config.out) / "episodes.csv")
+    old = Path(config.out) / "summary.md"
+    note = ""
+    if old.exists():  # keep the command that ran the episodes
+        for line in old.read_text().splitlines():
+            if line.startswith("Command: `") and "--rebuild" not in line:
+                note = f" (table rebuilt by `{config.command or 'rebuild()'}`)"
+                config = replace(config, command=line[len("Command: `"):].split("`")[0])
+                break
     for r in rows:
         r["error_kind"] = str(r["error_kind"])
         r["error"] = float(r["error"])
-    return _write(rows, config)
+    return _write(rows, config, note)
 
 
 __all__ = ["SensitivityConfig", "markdown", "rebuild", "run_sensitivity", "summarise_sensitivity"]

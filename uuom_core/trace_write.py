@@ -74,18 +74,12 @@ def write_csv_atomic(path: str | Path, header: Iterable[str], columns: Iterable[
 
     NaN cells are written empty (missing samples), numbers in the shortest form that reads back exactly, so every
     file this writes reads back with :func:`read_trace_csv`. Infinite values are refused (``ValueError``) before
-    anything is written. See :mod:`uuom_core.atomic_write` for what happens on interruption.
+    any row is written, and ``path`` is left as it was. See :mod:`uuom_core.atomic_write` for what happens on interruption.
     """
-    header = list(header)
-    cols = [np.asarray(c, dtype=np.float64) for c in columns]
-    if len({len(c) for c in cols}) > 1:
-        raise ValueError(f"columns differ in length: {[len(c) for c in cols]}")
-    for name, c in zip(header, cols):
-        if np.isinf(c).any():
-            raise ValueError(f"column {name!r} has infinite values; the trace format cannot hold them")
+    cols = list(columns)
     with csv_writer_atomic(path, header) as writer:
         if cols:
-            writer.write(cols)
+            writer.write(cols)  # checks lengths and infinite values before writing a row
 
 
 __all__ = ["CsvColumnWriter", "csv_writer_atomic", "write_csv_atomic"]

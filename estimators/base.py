@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -154,6 +155,34 @@ class Estimator(ABC):
     @abstractmethod
     def estimate(self) -> Estimate:
         """The current estimate without processing a sample."""
+
+    def update_block(
+        self,
+        torque_nm: Sequence[float],
+        speed_mps: Sequence[float],
+        accel_mps2: Sequence[float],
+        dt_s: float,
+        motor_speed_radps: Sequence[float] | None = None,
+        gyro_radps: Sequence[float] | None = None,
+        accel_normal_mps2: Sequence[float] | None = None,
+    ) -> Estimate:
+        """Process a block of samples ``dt_s`` apart and return the estimate after the last one.
+
+        The same as calling :meth:`update` on each sample in turn (the environment feeds the samples of one policy
+        step this way); estimators with a compiled step override it to skip the per-sample estimates.
+        """
+        n = len(torque_nm)
+        nan = [math.nan] * n
+        cols = [speed_mps, accel_mps2, motor_speed_radps, gyro_radps, accel_normal_mps2]
+        if any(c is not None and len(c) != n for c in cols):
+            raise ValueError(f"{self.name}: update_block: the columns must all have {n} samples")
+        motor, gyro, acc_n = (nan if c is None else c for c in cols[2:])
+        e = self.estimate
+        update = self.update
+        for i in range(n):
+            e = update(float(torque_nm[i]), float(speed_mps[i]), float(accel_mps2[i]), dt_s, float(motor[i]),
+                       float(gyro[i]), float(acc_n[i]))
+        return e
 
     def run(self, trace: Trace, reset: bool = True, *, t_prev_s: float | None = None) -> EstimateSeries:
         """Run the estimator over a whole trace, sample by sample, exactly as online.

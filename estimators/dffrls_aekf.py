@@ -284,6 +284,15 @@ class DFFRLSAEKF(Estimator):
         kern.step(self.S, self.H, self.C, float(torque_nm), float(speed_mps), float(accel_mps2), float(dt_s))
         return self.estimate
 
+    def update_block(self, torque_nm, speed_mps, accel_mps2, dt_s, motor_speed_radps=None, gyro_radps=None,
+                     accel_normal_mps2=None) -> Estimate:
+        """The samples of a block through the compiled step in one call; the same state as :meth:`update` each."""
+        cols = [np.ascontiguousarray(c, dtype=np.float64) for c in (torque_nm, speed_mps, accel_mps2)]
+        if not cols[0].ndim == cols[1].ndim == cols[2].ndim == 1 or not len(cols[0]) == len(cols[1]) == len(cols[2]):
+            raise ValueError(f"{self.name}: update_block: torque, speed and accel must be 1-D and of equal length")
+        kern.steps(self.S, self.H, self.C, cols[0], cols[1], cols[2], float(dt_s))
+        return self.estimate
+
     @property
     def estimate(self) -> Estimate:
         o = self._out

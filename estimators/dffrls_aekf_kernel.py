@@ -418,6 +418,13 @@ def estimate(S, C, out):
 
 
 @njit(cache=True)
+def steps(S, H, C, torque, speed, accel, dt):
+    """:func:`step` over a block of samples ``dt`` apart, without the per-sample estimates (the env's path)."""
+    for i in range(torque.shape[0]):
+        step(S, H, C, torque[i], speed[i], accel[i], dt)
+
+
+@njit(cache=True)
 def run(S, H, C, torque, speed, accel, dts, out):
     """The batch path: :func:`step` + :func:`estimate` over whole arrays; ``out`` has shape (n, 7)."""
     row = np.empty(7)

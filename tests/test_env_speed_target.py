@@ -135,3 +135,34 @@ def test_station_cap_stops_a_full_speed_action_at_the_station():
     assert abs(ends["station"]["distance_to_go_m"]) <= 3.0
     assert ends["cautious"]["termination"] == "overrun"
     assert ends["station"]["target_speed_mps"] == 0.0
+
+
+@pytest.mark.parametrize("action, expected", [(-1.0, 0.35), (0.0, 0.475), (1.0, 0.6)])
+def test_target_span_maps_actions_around_the_cautious_limit(action, expected):
+    assert target_speed_mps(action, 0.5, (0.7, 1.2)) == pytest.approx(expected)
+    assert target_speed_mps(action, 0.5, (0.0, 1.0)) == target_speed_mps(action, 0.5)
+
+
+def test_target_span_config():
+    assert make_config()["speed_target_range"] == (0.0, 1.0)
+    with pytest.raises(ConfigError, match="speed_target_range"):
+        make_config(speed_target_range=(1.2, 0.7))
+    with pytest.raises(ConfigError, match="speed_target_range"):
+        make_config(speed_target_range=(0.5, 3.0))
+
+
+def test_span_above_one_never_asks_for_more_than_the_station_envelope():
+    from uuom_gym.envs.speed_target import station_envelope_mps
+
+    env = gym.make("UUOM-Track-v0", action_mode="speed_target", speed_target_cap="station",
+                   speed_target_range=(0.7, 1.2), track_length_m=(50.0, 50.0), load_kg=0.0)
+    _, info = env.reset(seed=3)
+    for _ in range(3000):  # a = 0: 0.95 x the cautious limit, then the envelope
+        u = env.unwrapped
+        envelope = station_envelope_mps(u.station_m - u.obs_builder.odometry_m)  # where the target is set
+        _, _, term, trunc, info = env.step(np.zeros(1, np.float32))
+        assert info["target_speed_mps"] <= envelope + 1e-12
+        if term or trunc:
+            break
+    env.close()
+    assert info["termination"] == "arrived", info["termination"]

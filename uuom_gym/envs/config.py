@@ -50,6 +50,7 @@ def default_config() -> dict[str, Any]:
         "idle_limit_s": 20.0,
         "action_mode": "command",
         "speed_target_cap": "cautious",
+        "speed_target_range": (0.0, 1.0),
         "speed_tracker": {},
         # --- randomisation per reset(seed) ------------------------------------------------------------------
         "load_kg": None,
@@ -134,6 +135,10 @@ CONFIG_DOCS: dict[str, str] = {
     "sqrt(2 x 0.3 m/s^2 x (odometry distance to go - 0.5 m)), so every action a > -1 stops at the station "
     "(a meta-action over a low-level tracker, as in HighwayEnv: the env gives the policy the station envelope; "
     "docs/rl.md §7).",
+    "speed_target_range": "action_mode='speed_target' only: (lo, hi) fractions of the cautious limit that a = -1 "
+    "and a = +1 ask for, linear between (default (0, 1): a = -1 stops). With speed_target_cap='station' the braking "
+    "envelope is divided by max(hi, 1) first, so no action asks for more than the envelope. A span around 1, e.g. "
+    "(0.7, 1.2), makes the policy's zero drive near the cautious limit and lets it learn where to go above it (rev. 5).",
     "speed_tracker": "action_mode='speed_target' only: overrides of the PI tracker's gains, keys gain_per_s, "
     "integral_gain_per_s2, integral_clamp_m (uuom_gym.envs.speed_target.SpeedTracker; {} keeps its defaults).",
     "load_kg": "Fixed load (kg) instead of a random one; None draws it from load_fraction_range.",
@@ -315,6 +320,7 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
         raise ConfigError(
             f"config key 'speed_target_cap' must be 'cautious' or 'station', got {cfg['speed_target_cap']!r}"
         )
+    _check_range(cfg, "speed_target_range", 0.0, 2.0)
     _check_tracker(cfg)
     if cfg["load_kg"] is not None:
         _check_number(cfg, "load_kg", 0.0, 1e6)

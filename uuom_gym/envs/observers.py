@@ -116,11 +116,8 @@ class EstimatorObserver(Observer):
         self.extras = {}
 
     def observe(self, measured, dt_s, true_mass_kg, true_slope_rad):  # type: ignore[override]
-        cols = [np.asarray(measured[k], dtype=float).tolist() for k in SENSOR_KEYS]
-        update = self.estimator.update
-        e = self._last
-        for torque, speed, accel, motor, gyro, acc_n in zip(*cols):
-            e = update(torque, speed, accel, dt_s, motor, gyro, acc_n)
+        e = self.estimator.update_block(*(measured[k] for k in SENSOR_KEYS[:3]), dt_s,
+                                        *(measured[k] for k in SENSOR_KEYS[3:]))
         self._last = e
         if e.extras:
             self.extras = {k: float(v) for k, v in e.extras.items() if math.isfinite(v)}

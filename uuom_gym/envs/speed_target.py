@@ -41,10 +41,16 @@ def station_envelope_mps(distance_to_go_m: float) -> float:
     return math.sqrt(2.0 * ENVELOPE_DECEL_MPS2 * d)
 
 
-def target_speed_mps(action: float, cautious_limit_mps: float) -> float:
-    """Target speed for an action in ``[-1, 1]``: ``(a + 1) / 2 * cautious_limit`` (clipped to ``[0, limit]``)."""
+def target_speed_mps(action: float, cautious_limit_mps: float, span: tuple[float, float] = (0.0, 1.0)) -> float:
+    """Target speed for an action in ``[-1, 1]``: ``(lo + (a + 1) / 2 (hi - lo)) * cautious_limit``.
+
+    ``span = (lo, hi)`` is config ``speed_target_range``; the default ``(0, 1)`` gives ``(a + 1) / 2 * limit``
+    (``a = -1`` stops). A span centred near 1 makes the policy's zero drive at the cautious limit and lets it learn
+    to go above it where the estimate can be trusted (``hi > 1``: no shield, a target above the true limit trips).
+    """
     a = min(max(float(action), -1.0), 1.0)
-    return 0.5 * (a + 1.0) * max(float(cautious_limit_mps), 0.0)
+    lo, hi = float(span[0]), float(span[1])
+    return (lo + 0.5 * (a + 1.0) * (hi - lo)) * max(float(cautious_limit_mps), 0.0)
 
 
 @dataclass

@@ -168,6 +168,10 @@ class UUOMTrackEnv(gym.Env):
       (the stop had to be timed by the policy inside a 3 m window, 2 500-8 000 steps into a heavy train's
       episode), and the tracker's small integral stalled a 35 t train on a grade change and overshot the target in
       a sag curve.
+    * v0 (rev. 5, no id change, default behaviour unchanged): opt-in config ``speed_target_range=(lo, hi)``, the
+      fractions of the cautious limit that ``a = -1`` and ``a = +1`` ask for. Reason (docs/rl.md §8): the rev. 4
+      policy stayed near its untrained starting point, 58 % of the cap (1.9x the oracle's trip time); a span
+      around 1 starts it at the cautious limit and lets it learn where to go above it.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
@@ -385,10 +389,12 @@ class UUOMTrackEnv(gym.Env):
         if mf is not None and abs(mf - th) > FEEDFORWARD_CROSS_CHECK_RAD:
             # The estimators' slope can be confidently wrong by 5-12 deg while braking (docs/agents.md).
             th = mf
+        span = self.config["speed_target_range"]
         cap = self._cautious_mps
         if self.config["speed_target_cap"] == "station":
-            cap = min(cap, station_envelope_mps(self.station_m - self.obs_builder.odometry_m))
-        self._target_mps = target_speed_mps(action, cap)
+            # the envelope divided by the span's top, so that no action asks for more than the envelope
+            cap = min(cap, station_envelope_mps(self.station_m - self.obs_builder.odometry_m) / max(span[1], 1.0))
+        self._target_mps = target_speed_mps(action, cap, span)
         return self._tracker.command(self._target_mps, self.obs_builder.speed_mps, m, th)
 
     def _potential(self) -> float:

@@ -34,6 +34,14 @@ def _json_object(text: str) -> dict[str, Any]:
     return value
 
 
+def _pool(text: str) -> tuple[str, list[str]]:
+    label, sep, members = text.partition("=")
+    names = [m for m in members.split(",") if m]
+    if not sep or not label.strip() or len(names) < 2:
+        raise argparse.ArgumentTypeError(f"must be LABEL=CTRL,CTRL[,...] (two or more controllers), got {text!r}")
+    return label.strip(), names
+
+
 # --- uuom-train ----------------------------------------------------------------------------------------------
 def train_parser() -> argparse.ArgumentParser:
     """The argument parser of ``uuom-train``."""
@@ -132,6 +140,9 @@ def evaluate_parser() -> argparse.ArgumentParser:
     ap.add_argument("--merge", nargs="+", type=Path, default=None, metavar="DIR",
                     help="build the table and the bar chart from the episodes.csv of earlier --out directories "
                     "(no new episodes, except the one recorded episode per controller for the speed plot)")
+    ap.add_argument("--pool", action="append", type=_pool, default=None, metavar="LABEL=CTRL,CTRL,...",
+                    help="with --merge: show these controllers (e.g. the run directories of several training seeds) "
+                    "as one row LABEL; its trip-time interval resamples the seeds and the tracks (repeatable)")
     ap.add_argument("--quiet", action="store_true")
     return ap
 
@@ -147,7 +158,7 @@ def evaluate_main(argv: list[str] | None = None, prog: str = "uuom-evaluate") ->
         controllers=list(args.controllers), observers=list(args.observers), episodes=args.episodes,
         seed_base=args.seed_base, workers=args.workers, use_ray=args.ray, env_kwargs=args.env_kwargs,
         out=args.out, plot_seed=args.plot_seed, plot_observer=args.plot_observer, bars_png=args.bars_png,
-        episode_png=args.episode_png, merge=args.merge, quiet=args.quiet,
+        episode_png=args.episode_png, merge=args.merge, quiet=args.quiet, pool=dict(args.pool or []),
         command=" ".join([prog, *(sys.argv[1:] if argv is None else argv)]),
     )
     try:

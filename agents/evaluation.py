@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.evaluation_table import (DEFAULT_OBSERVERS, RULES, markdown_ci_table, markdown_table, read_episodes,
+from agents.evaluation_table import (DEFAULT_OBSERVERS, RULES, markdown_ci_table, markdown_table, pool_rows, read_episodes,
                                      summarise, write_csv)
 
 ENV_ID = "UUOM-Track-v0"
@@ -213,7 +213,8 @@ class EvalConfig:
     """What :func:`evaluate` runs and where it writes (the fields of ``uuom-evaluate``'s options).
 
     ``merge``: build the table from the ``episodes.csv`` of earlier ``out`` directories instead of running
-    episodes (only the one recorded episode per controller for the speed plot is run). ``command``: the command
+    episodes (only the one recorded episode per controller for the speed plot is run). ``pool`` (with ``merge``):
+    label -> controllers, several training seeds shown as one row (:func:`agents.evaluation_table.pool_rows`). ``command``: the command
     line written into ``summary.md`` (``None``: "called from Python").
     """
 
@@ -230,6 +231,7 @@ class EvalConfig:
     bars_png: Path | None = None
     episode_png: Path | None = None
     merge: list[Path] | None = None
+    pool: dict[str, list[str]] | None = None
     quiet: bool = False
     command: str | None = None
 
@@ -254,6 +256,11 @@ def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
     out = Path(config.out)
     if config.merge:
         rows = _merged_rows(config.merge)
+        if config.pool:
+            try:
+                rows = pool_rows(rows, config.pool)
+            except ValueError as exc:
+                raise EvalConfigError(f"--pool: {exc}") from None
         seeds = sorted({int(r["seed"]) for r in rows})
         head = (f"Held-out seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} tracks), {len(rows)} episodes merged from "
                 f"{', '.join(str(d) for d in config.merge)}.\nCommand: `{cmd}`\n\n{_parts(config.merge)}")
@@ -328,6 +335,8 @@ def check_config(config: EvalConfig) -> None:
             raise EvalConfigError(
                 f"controller {spec!r} is neither one of {', '.join(CONTROLLERS)} nor a run directory with a model.zip"
             )
+    if config.pool and not config.merge:
+        raise EvalConfigError("--pool needs --merge (it pools the rows of earlier evaluations)")
     for d in config.merge or []:
         if not (Path(d) / "episodes.csv").is_file():
             raise EvalConfigError(f"--merge {d}: no episodes.csv there")

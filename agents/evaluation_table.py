@@ -17,7 +17,11 @@ RULES = ("speed_limit", "adhesion", "rollback", "sway", "overspeed_trip", "stall
 
 
 def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[dict[str, Any]]:
-    """One summary row per (controller, observer)."""
+    """One summary row per (controller, observer).
+
+    Rows that carry a ``training_run`` (set by :func:`pool_rows`) are several trained policies under one label: their
+    trip-time interval resamples the training runs as well as the tracks, and ``training_runs`` counts them.
+    """
     ref = {r["seed"]: r["trip_time_s"] for r in rows if r["controller"] == oracle_label and r["success"]}
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for r in rows:
@@ -28,13 +32,25 @@ def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[
         km = sum(r["distance_m"] for r in rs) / 1000.0
         steps = sum(r["steps"] for r in rs)
         ratios = [r["trip_time_s"] / ref[r["seed"]] for r in rs if r["success"] and r["seed"] in ref]
+        runs = sorted({str(r.get("training_run", "")) for r in rs})
+        if len(runs) > 1:
+            # several training seeds pooled under one label: resample the seeds and the tracks (two-level)
+            tracks = sorted({int(r["seed"]) for r in rs})
+            grid = np.full((len(runs), len(tracks)), np.nan)
+            for r in rs:
+                if r["success"] and r["seed"] in ref:
+                    grid[runs.index(str(r.get("training_run", ""))), tracks.index(int(r["seed"]))] = (
+                        r["trip_time_s"] / ref[r["seed"]])
+            ci = bootstrap_ci(grid)
+        else:
+            ci = bootstrap_ci(ratios)
         energy = [r["energy_kj_per_tkm"] for r in rs if r["success"] and math.isfinite(r["energy_kj_per_tkm"])]
         mass_err = [r["mass_err_pct"] for r in rs if math.isfinite(r["mass_err_pct"])]
         slope_err = [r["slope_err_deg"] for r in rs if math.isfinite(r["slope_err_deg"])]
-        ci = bootstrap_ci(ratios)
         row = {
             "controller": ctrl,
             "observer": obs,
+            "training_runs": len(runs),
             "episodes": n,
             "success_rate": sum(bool(r["success"]) for r in rs) / n,
             "overspeed_trips": sum(bool(r["overspeed_trip"]) for r in rs),
@@ -56,6 +72,36 @@ def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[
         out.append(row)
     order = {o: i for i, o in enumerate(DEFAULT_OBSERVERS)}
     out.sort(key=lambda r: (r["controller"] != oracle_label, r["controller"], order.get(r["observer"], 99), r["observer"]))
+    return out
+
+
+def pool_rows(rows: list[dict[str, Any]], pools: dict[str, list[str]]) -> list[dict[str, Any]]:
+    """Relabel the rows of each pool's controllers as the pool's name, keeping the original in ``training_run``.
+
+    ``pools`` maps a label (e.g. ``"PPO span 0.8-1.3 (3 seeds)"``) to the controller labels it pools (e.g. the
+    run directories' names of three training seeds); a controller in no pool is left as it is.
+
+    Raises
+    ------
+    ValueError
+        A pooled controller has no rows, or sits in two pools.
+    """
+    owner: dict[str, str] = {}
+    for label, members in pools.items():
+        for m in members:
+            if m in owner:
+                raise ValueError(f"controller {m!r} is in two pools: {owner[m]!r} and {label!r}")
+            owner[m] = label
+    present = {r["controller"] for r in rows}
+    missing = sorted(set(owner) - present)
+    if missing:
+        raise ValueError(f"pooled controller(s) with no episodes: {', '.join(missing)}; have: {', '.join(sorted(present))}")
+    out = []
+    for r in rows:
+        r = dict(r)
+        r["training_run"] = r["controller"] if r["controller"] in owner else r.get("training_run", "")
+        r["controller"] = owner.get(r["controller"], r["controller"])
+        out.append(r)
     return out
 
 
@@ -108,8 +154,10 @@ def markdown_table(summary: list[dict[str, Any]]) -> str:
 
     lines = []
     for r in summary:
+        runs = int(r.get("training_runs", 1))
+        label = r["controller"] + (f" ({runs} training seeds)" if runs > 1 else "")
         lines.append(
-            f"| {r['controller']} | {r['observer']} | {100 * r['success_rate']:.0f} % | {r['overspeed_trips']}/{r['episodes']} "
+            f"| {label} | {r['observer']} | {100 * r['success_rate']:.0f} % | {r['overspeed_trips']}/{r['episodes']} "
             f"| {r['cost_rate']:.2e} | {f(r['trip_time_vs_oracle'], 3)} | {f(r['energy_kj_per_tkm'], 0)} "
             f"| {f(r['viol_per_km/speed_limit'], 1)} | {f(r['viol_per_km/adhesion'], 1)} | {f(r['viol_per_km/rollback'], 1)} "
             f"| {f(r['viol_per_km/sway'], 1)} | {f(r['viol_per_km/stall'], 1)} | {f(r['mass_err_pct'], 1)} | {f(r['slope_err_deg'], 2)} |"
@@ -131,12 +179,14 @@ def markdown_ci_table(summary: list[dict[str, Any]]) -> str:
         t = r.get("trip_time_iqm", float("nan"))
         tt = "n/a" if not math.isfinite(t) else (
             f"{t:.3f} ({r['trip_time_iqm_lo']:.3f}–{r['trip_time_iqm_hi']:.3f})")
+        runs = int(r.get("training_runs", 1))
+        label = r["controller"] + (f" ({runs} training seeds)" if runs > 1 else "")
         lines.append(
-            f"| {r['controller']} | {r['observer']} | {100 * r['success_rate']:.0f} % ({pct(r['success_lo'])}–"
+            f"| {label} | {r['observer']} | {100 * r['success_rate']:.0f} % ({pct(r['success_lo'])}–"
             f"{pct(r['success_hi'])} %) | {r['overspeed_trips']}/{r['episodes']} ({pct(r['trip_rate_lo'])}–"
             f"{pct(r['trip_rate_hi'])} %) | {tt} |")
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["DEFAULT_OBSERVERS", "RULES", "markdown_ci_table", "markdown_table", "read_episodes", "summarise",
-           "write_csv"]
+__all__ = ["DEFAULT_OBSERVERS", "RULES", "markdown_ci_table", "markdown_table", "pool_rows", "read_episodes",
+           "summarise", "write_csv"]

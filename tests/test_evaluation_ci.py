@@ -33,3 +33,37 @@ def test_summary_has_intervals_and_the_ci_table(tmp_path) -> None:
     png = tmp_path / "tradeoff.png"
     plot_tradeoff(summary, png)
     assert png.stat().st_size > 10_000
+
+
+def _policy_rows(name: str, ratio: float) -> list[dict]:
+    base = {"distance_m": 200.0, "steps": 1000, "cost": 0.0, "energy_kj_per_tkm": 350.0, "mass_err_pct": 1.0,
+            "slope_err_deg": 0.1, **{f"violations/{r}": 0 for r in RULES}}
+    return [{**base, "controller": name, "observer": "ekf", "seed": seed, "success": True, "overspeed_trip": False,
+             "trip_time_s": 100.0 * ratio * (1.0 + 0.01 * (seed % 5))} for seed in range(40)]
+
+
+def test_pooled_training_seeds_are_one_row_with_a_wider_interval() -> None:
+    from agents.evaluation_table import pool_rows
+
+    oracle = [r for r in _rows() if r["controller"] == "oracle"]
+    seeds = _policy_rows("run_s0", 1.05) + _policy_rows("run_s1", 1.15) + _policy_rows("run_s2", 1.10)
+    pooled = summarise(pool_rows(oracle + seeds, {"ppo": ["run_s0", "run_s1", "run_s2"]}))
+    row = next(r for r in pooled if r["controller"] == "ppo")
+    assert row["training_runs"] == 3 and row["episodes"] == 120
+    # the seeds differ by far more than the tracks: resampling them widens the interval to span them
+    assert row["trip_time_iqm_lo"] < 1.08 and row["trip_time_iqm_hi"] > 1.12
+    one = next(r for r in summarise(oracle + _policy_rows("run_s0", 1.05)) if r["controller"] == "run_s0")
+    assert one["training_runs"] == 1 and one["trip_time_iqm_hi"] - one["trip_time_iqm_lo"] < 0.02
+    assert "| ppo (3 training seeds) | ekf |" in markdown_ci_table(pooled)
+
+
+def test_pool_errors_name_the_controller() -> None:
+    import pytest
+
+    from agents.evaluation_table import pool_rows
+
+    rows = _policy_rows("run_s0", 1.0)
+    with pytest.raises(ValueError, match="no episodes: run_s9"):
+        pool_rows(rows, {"ppo": ["run_s0", "run_s9"]})
+    with pytest.raises(ValueError, match="two pools"):
+        pool_rows(rows, {"a": ["run_s0"], "b": ["run_s0"]})

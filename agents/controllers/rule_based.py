@@ -136,7 +136,6 @@ class RuleBasedController(SpeedController):
 
     def _remember(self, x: ControlInput) -> None:
         """Advance the clock and keep the pessimistic mass of the last ``memory_s`` seconds."""
-        v = self.vehicle
         self._t_s += x.dt_s
         self._grade_check.update(x)
         self._mass_history.append((self._t_s, self._pessimistic_mass_now(x)))

@@ -141,6 +141,11 @@ def read_episodes(path: Path) -> list[dict[str, Any]]:
     return rows
 
 
+def _row_label(r: dict[str, Any]) -> str:
+    runs = int(r.get("training_runs", 1))
+    return r["controller"] + (f" ({runs} training seeds)" if runs > 1 else "")
+
+
 def markdown_table(summary: list[dict[str, Any]]) -> str:
     """The Markdown table of the summary (the README shows it)."""
     head = (
@@ -154,8 +159,7 @@ def markdown_table(summary: list[dict[str, Any]]) -> str:
 
     lines = []
     for r in summary:
-        runs = int(r.get("training_runs", 1))
-        label = r["controller"] + (f" ({runs} training seeds)" if runs > 1 else "")
+        label = _row_label(r)
         lines.append(
             f"| {label} | {r['observer']} | {100 * r['success_rate']:.0f} % | {r['overspeed_trips']}/{r['episodes']} "
             f"| {r['cost_rate']:.2e} | {f(r['trip_time_vs_oracle'], 3)} | {f(r['energy_kj_per_tkm'], 0)} "
@@ -179,8 +183,7 @@ def markdown_ci_table(summary: list[dict[str, Any]]) -> str:
         t = r.get("trip_time_iqm", float("nan"))
         tt = "n/a" if not math.isfinite(t) else (
             f"{t:.3f} ({r['trip_time_iqm_lo']:.3f}–{r['trip_time_iqm_hi']:.3f})")
-        runs = int(r.get("training_runs", 1))
-        label = r["controller"] + (f" ({runs} training seeds)" if runs > 1 else "")
+        label = _row_label(r)
         lines.append(
             f"| {label} | {r['observer']} | {100 * r['success_rate']:.0f} % ({pct(r['success_lo'])}–"
             f"{pct(r['success_hi'])} %) | {r['overspeed_trips']}/{r['episodes']} ({pct(r['trip_rate_lo'])}–"

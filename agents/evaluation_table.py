@@ -31,16 +31,17 @@ def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[
         n = len(rs)
         km = sum(r["distance_m"] for r in rs) / 1000.0
         steps = sum(r["steps"] for r in rs)
-        ratios = [r["trip_time_s"] / ref[r["seed"]] for r in rs if r["success"] and r["seed"] in ref]
+        # (training run, track, trip time / oracle) of every arrived episode with an oracle reference
+        scored = [(str(r.get("training_run", "")), int(r["seed"]), r["trip_time_s"] / ref[r["seed"]])
+                  for r in rs if r["success"] and r["seed"] in ref]
+        ratios = [x for _, _, x in scored]
         runs = sorted({str(r.get("training_run", "")) for r in rs})
         if len(runs) > 1:
             # several training seeds pooled under one label: resample the seeds and the tracks (two-level)
             tracks = sorted({int(r["seed"]) for r in rs})
             grid = np.full((len(runs), len(tracks)), np.nan)
-            for r in rs:
-                if r["success"] and r["seed"] in ref:
-                    grid[runs.index(str(r.get("training_run", ""))), tracks.index(int(r["seed"]))] = (
-                        r["trip_time_s"] / ref[r["seed"]])
+            for run, track, x in scored:
+                grid[runs.index(run), tracks.index(track)] = x
             ci = bootstrap_ci(grid)
         else:
             ci = bootstrap_ci(ratios)

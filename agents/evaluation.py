@@ -300,8 +300,9 @@ def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
     plot_episode(rec, episode_png)
     figures = [str(p) for p in (bars_png, tradeoff_png, episode_png) if p.exists()]
     md_ci = markdown_ci_table(summary)
-    (out / "summary.md").write_text(head + md + "\nWith 95 % intervals (Wilson for rates; bootstrap over tracks "
-                                    "for the interquartile mean of trip time / oracle):\n\n" + md_ci
+    (out / "summary.md").write_text(head + md + "\nWith 95 % intervals (Wilson for rates; bootstrap over tracks, "
+                                    "and over training seeds where pooled, for the interquartile mean of trip time / "
+                                    "oracle):\n\n" + md_ci
                                     + f"\nFigures: {', '.join(figures)}.\n")
     if not config.quiet:
         print(md)

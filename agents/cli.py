@@ -171,4 +171,60 @@ def evaluate_main(argv: list[str] | None = None, prog: str = "uuom-evaluate") ->
     return 0
 
 
-__all__ = ["evaluate_main", "evaluate_parser", "train_config", "train_main", "train_parser"]
+# --- uuom-tune -----------------------------------------------------------------------------------------------
+def tune_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``uuom-tune``: ``uuom-train``'s options (the base training) plus the sweep's."""
+    from agents.tune import BACKENDS, SEARCHES, VALIDATION_SEED_BASE
+
+    ap = train_parser()
+    ap.prog = "uuom-tune"
+    ap.description = ("Hyperparameter sweep: the training of uuom-train with the --space values applied, each trial "
+                      "scored on validation tracks; one trial after another, or Ray Tune trials with --backend ray.")
+    ap.epilog = ("Example: uuom-tune --residual 0 --no-shield --timesteps 100000 --space learning_rate=1e-4,3e-4 "
+                 "seed=0,1 --backend ray --out runs/tune/lr")
+    ap.add_argument("--space", nargs="+", required=True, metavar="KEY=VALUES",
+                    help="KEY=V1,V2,... (a grid) or KEY=uniform:LO:HI / loguniform:LO:HI (--search optuna); KEY is a "
+                    "hyperparameter or seed / observer / residual / timesteps")
+    ap.add_argument("--search", choices=SEARCHES, default="grid")
+    ap.add_argument("--samples", type=int, default=1, help="grid: repeats of every combination; optuna: trials")
+    ap.add_argument("--backend", choices=BACKENDS, default="local",
+                    help="local: one trial after another; ray: Ray Tune (RAY_ADDRESS for a cluster)")
+    ap.add_argument("--val-episodes", type=int, default=10, help="validation tracks per trial")
+    ap.add_argument("--val-seed-base", type=int, default=VALIDATION_SEED_BASE)
+    ap.add_argument("--failure-ratio", type=float, default=3.0,
+                    help="objective of a failed or tripped track (trip time / oracle of an arrived one)")
+    ap.add_argument("--cpus-per-trial", type=int, default=1)
+    ap.add_argument("--out", type=Path, default=Path("runs/tune"))
+    return ap
+
+
+def tune_main(argv: list[str] | None = None) -> int:
+    """``uuom-tune``: 0 when every trial ran, 2 on bad input, 130 when interrupted."""
+    ap = tune_parser()
+    args = ap.parse_args(argv)
+    from agents.ray_support import RayUnavailableError
+    from agents.tune import SweepConfig, TuneConfigError, parse_space, sweep
+
+    if args.run_dir is not None or args.resume or args.fresh:
+        ap.error("--run-dir / --resume / --fresh: a sweep writes every trial fresh under --out")
+    try:
+        config = SweepConfig(
+            base=train_config(args), space=parse_space(args.space), search=args.search, samples=args.samples,
+            backend=args.backend, val_episodes=args.val_episodes, val_seed_base=args.val_seed_base,
+            failure_ratio=args.failure_ratio, cpus_per_trial=args.cpus_per_trial, out=args.out, seed=args.seed,
+            command=" ".join(["uuom-tune", *(sys.argv[1:] if argv is None else argv)]),
+        )
+        rows = sweep(config)
+    except (TuneConfigError, RayUnavailableError) as exc:
+        ap.error(str(exc))
+    except KeyboardInterrupt:
+        print("uuom-tune: interrupted (trials finished so far are under --out)", file=sys.stderr, flush=True)
+        return 130
+    best = rows[0]
+    print(f"best: {({k[6:]: v for k, v in best.items() if k.startswith('param.')})} objective "
+          f"{best['objective']:.3f} -> {Path(args.out) / 'summary.md'}")
+    return 0
+
+
+__all__ = ["evaluate_main", "evaluate_parser", "train_config", "train_main", "train_parser", "tune_main",
+           "tune_parser"]

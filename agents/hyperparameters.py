@@ -51,7 +51,7 @@ def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[s
             raise TrainConfigError(f"--hyperparams expects key=value, got {item!r}")
         key, text = item.split("=", 1)
         try:
-            value = yaml.safe_load(text)
+            value = parse_value(text)
         except yaml.YAMLError:
             raise TrainConfigError(f"--hyperparams {item!r}: {text!r} is not a YAML value") from None
         if key in hp:
@@ -60,6 +60,20 @@ def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[s
             raise TrainConfigError(f"--hyperparams {item!r}: {algo} has no hyperparameter {key!r}")
         hp[key] = value
     return hp
+
+
+def parse_value(text: str) -> Any:
+    """A ``key=value`` value: a number as a number (YAML 1.1 alone reads ``1e-4`` as a string), else YAML."""
+    import yaml
+
+    for kind in (int, float):
+        try:
+            value = kind(text)
+        except ValueError:
+            continue
+        # nan / inf stay text, so the kind check rejects them by name instead of training on them
+        return value if math.isfinite(value) else text
+    return yaml.safe_load(text)
 
 
 def _constructor_args(algo: str) -> set[str]:
@@ -127,5 +141,6 @@ __all__ = [
     "TrainConfigError",
     "evaluate_str",
     "load_hyperparams",
+    "parse_value",
     "wrappers_from_env_wrapper",
 ]

@@ -22,6 +22,7 @@ import json
 import shutil
 import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -318,14 +319,18 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any) -
             stop.stop = True
             signal.signal(signal.SIGINT, previous)  # a second Ctrl-C aborts at once
 
-        signal.signal(signal.SIGINT, _on_sigint)
+        # a Ray Tune trial runs in a worker thread, where handlers cannot be installed (Tune stops it instead)
+        in_main = threading.current_thread() is threading.main_thread()
+        if in_main:
+            signal.signal(signal.SIGINT, _on_sigint)
         try:
             if remaining > 0:
                 model.learn(total_timesteps=remaining, callback=CallbackList(callbacks),
                             progress_bar=config.progress and _has_progress_deps(),
                             reset_num_timesteps=resume is None, tb_log_name="run")
         finally:
-            signal.signal(signal.SIGINT, previous)
+            if in_main:
+                signal.signal(signal.SIGINT, previous)
         if stop.stop:
             ckpt.model = model
             path = ckpt.save()

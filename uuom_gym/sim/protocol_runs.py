@@ -232,7 +232,8 @@ def _random_plant(spec: RunSpec) -> Trace:
     scen = Scenario(spec.name, track, load, profile, spec.duration_s, start)
     tr = simulate_run(scen, seed=spec.seed, plant_config=pc, sensor_config=sensors, fault_config=faults)
     tr.meta.update(mu=f"{mu:.4f}", wet=str(wet), wear_mm=f"{1000 * pc.wheel_wear_m:.2f}",
-                   dropouts=f"{faults.dropout_prob:.4f}" if faults else "0")
+                   dropouts=f"{faults.dropout_prob:.4f}" if faults else "0", chain_m=f"{pc.chain_length_m:.3f}",
+                   sway_damping=f"{pc.anti_sway_damping_ratio:.3f}")
     return tr
 
 
@@ -301,7 +302,8 @@ def _random_point(spec: RunSpec) -> Trace:
                            chain_length_m=float(rng.uniform(1.5, 3.5)),
                            sway_damping_ratio=float(rng.uniform(0.03, 0.15)), sensors=sensors, faults=faults)
     tr = _with_effective_slope(simulate_point_mass(sc, seed=spec.seed))
-    tr.meta.update(mu=f"{mu:.4f}", dropouts=f"{faults.dropout_prob:.4f}", stop_and_go=str(plan.by == "time"))
+    tr.meta.update(mu=f"{mu:.4f}", dropouts=f"{faults.dropout_prob:.4f}", stop_and_go=str(plan.by == "time"),
+                   chain_m=f"{sc.chain_length_m:.3f}", sway_damping=f"{sc.sway_damping_ratio:.3f}")
     return tr
 
 

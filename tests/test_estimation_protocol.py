@@ -36,6 +36,7 @@ def test_random_runs_are_deterministic_and_differ_from_each_other() -> None:
     assert a["mass_kg"][0] != other["mass_kg"][0]
     assert f"{true_running_resistance(spec):.4f}" == a.meta["mu"]
     assert a.meta["world"] == "point" and np.array_equal(a["effective_slope_deg"], a["slope_deg"])
+    assert 1.5 <= float(a.meta["chain_m"]) <= 3.5 and 0.03 <= float(a.meta["sway_damping"]) <= 0.15
 
 
 def test_random_plant_run_has_train_averaged_slope_and_a_load_in_range() -> None:
@@ -45,6 +46,7 @@ def test_random_plant_run_has_train_averaged_slope_and_a_load_in_range() -> None
     assert "effective_slope_deg" in tr and np.all(np.isfinite(tr["effective_slope_deg"]))
     assert 16_000.0 <= tr["mass_kg"][0] <= 36_000.0
     assert 0.015 <= float(tr.meta["mu"]) <= 0.03
+    assert 1.5 <= float(tr.meta["chain_m"]) <= 3.0 and 0.03 <= float(tr.meta["sway_damping"]) <= 0.1
 
 
 def test_score_trace_row_matches_the_metric() -> None:

@@ -255,7 +255,8 @@ class DFFRLSAEKF(Estimator):
         Any field of :class:`DFFRLSAEKFConfig` (overrides ``config``). Unknown names raise ``TypeError``.
 
     Gives mass, slope (under the whole train) and μ (``extras["mu"]``, ``extras["mu_std"]``) with 1-sigma
-    standard deviations. ``dt_s`` NaN, zero or negative: the sample is ignored; above ``gap_s``: a data gap.
+    standard deviations, and ``extras["nis"]``: the normalised innovation squared of the sample's speed correction
+    (NaN where none), a consistency check that needs no truth (χ²(1) on average when the filter is right). ``dt_s`` NaN, zero or negative: the sample is ignored; above ``gap_s``: a data gap.
     """
 
     name: ClassVar[str] = "dffrls-aekf"
@@ -272,7 +273,7 @@ class DFFRLSAEKF(Estimator):
         self.C = self.config.settings(self.vehicle)
         self.S = np.zeros(kern.N_S)
         self.H = np.zeros(kern.N_HIST_MAX)
-        self._out = np.zeros(7)
+        self._out = np.zeros(8)
         self.reset()
 
     def reset(self) -> None:
@@ -297,7 +298,7 @@ class DFFRLSAEKF(Estimator):
     def estimate(self) -> Estimate:
         o = self._out
         kern.estimate(self.S, self.C, o)
-        extras = {"mu": float(o[4]), "mu_std": float(o[5])}
+        extras = {"mu": float(o[4]), "mu_std": float(o[5]), "nis": float(o[7])}
         if self.config.fused:
             extras["gravity_weight_sensor"] = float(o[6])
         return Estimate(float(o[0]), float(o[1]), float(o[2]), float(o[3]), extras)
@@ -313,12 +314,12 @@ class DFFRLSAEKF(Estimator):
         n = len(t)
         dts = first_step_dts(t, t_prev_s)
         # Column-major, so each output column is a contiguous view: no copies (10^6 samples: 56 MB, not 112 MB).
-        out = np.empty((7, n)).T
+        out = np.empty((8, n)).T
         col = [np.ascontiguousarray(trace[k], dtype=np.float64) for k in ("torque_nm", "speed_mps", "accel_mps2")]
         kern.run(self.S, self.H, self.C, col[0], col[1], col[2], dts, out)
         del col, dts
         rows = out.T
-        extras = {"mu": rows[4], "mu_std": rows[5]}
+        extras = {"mu": rows[4], "mu_std": rows[5], "nis": rows[7]}
         if self.config.fused:
             extras["gravity_weight_sensor"] = rows[6]
         return EstimateSeries(t if t is not trace["t_s"] else t.copy(), rows[0], rows[1], rows[2], rows[3], extras)

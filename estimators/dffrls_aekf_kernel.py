@@ -37,7 +37,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     FORCE_IN, GT_LAST, GT_REJ, GV_LAST, GV_REJ, GF_LAST, GF_REJ, LF1, LF2, LF_OK, LV1, LV2, LV_OK, LQ1, LQ2, LQ_OK,
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
-    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, N_S, N_HIST_MAX,
+    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, N_S, N_HIST_MAX,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
@@ -133,6 +133,7 @@ def _restart_signals(S, H):
 @njit(cache=True)
 def step(S, H, C, torque, speed, accel, dt):
     """Process one sample. Returns nothing; the estimate is read from ``S`` (:func:`estimate`)."""
+    S[NIS] = math.nan
     if not (dt > 0.0):  # NaN, 0, negative: a repeated or out-of-order stamp; nothing to integrate
         return
     if dt > C[GAP_S]:  # a gap (inf, 1e300 included): restart, then treat the sample as the first after it
@@ -192,6 +193,8 @@ def step(S, H, C, torque, speed, accel, dt):
                 p11 = max(p11, S[R])
             else:
                 S[REJ] = 0.0
+                # consistency of the speed prediction (R before this sample adapts it): chi2(1) if the filter is right
+                S[NIS] = eps * eps / s_inn
                 if C[ADAPT_R] != 0.0:
                     # Sage-Husa estimate of R (weights from k = 1: d_1 ~ 0.5 keeps the prior); the unbiased form
                     # eps^2 - H P- H^T falls back to the biased one when not positive, then bounded
@@ -396,7 +399,8 @@ def step(S, H, C, torque, speed, accel, dt):
 
 @njit(cache=True)
 def estimate(S, C, out):
-    """Write (mass, slope, mass_std, slope_std, mu, mu_std, alpha) into ``out`` (alpha: fused only, else 0)."""
+    """Write (mass, slope, mass_std, slope_std, mu, mu_std, alpha, nis) into ``out`` (alpha: fused only, else 0;
+    nis: NaN where the sample corrected no speed)."""
     c = S[MC]
     # the regression counts every 5 ms sample as independent, but its low-passed signals are correlated over
     # ~CORR_N samples: the parameter variance is that much too small
@@ -415,6 +419,7 @@ def estimate(S, C, out):
     var_mu = (S[PD] - 2.0 * mu * S[PCD] + mu * mu * S[PC]) / (c * c)
     out[5] = math.sqrt(max(var_mu * infl, 0.0))
     out[6] = min(max(S[MB] / c, 0.0), 1.0) if C[FUSED] != 0.0 else 0.0
+    out[7] = S[NIS]
 
 
 @njit(cache=True)
@@ -426,10 +431,10 @@ def steps(S, H, C, torque, speed, accel, dt):
 
 @njit(cache=True)
 def run(S, H, C, torque, speed, accel, dts, out):
-    """The batch path: :func:`step` + :func:`estimate` over whole arrays; ``out`` has shape (n, 7)."""
-    row = np.empty(7)
+    """The batch path: :func:`step` + :func:`estimate` over whole arrays; ``out`` has shape (n, 8)."""
+    row = np.empty(8)
     for i in range(torque.shape[0]):
         step(S, H, C, torque[i], speed[i], accel[i], dts[i])
         estimate(S, C, row)
-        for j in range(7):
+        for j in range(8):
             out[i, j] = row[j]

@@ -137,5 +137,6 @@ PB = 65
 PCB = 66
 PDB = 67
 DIST0 = 68
-N_S = 69
+NIS = 69  # normalised innovation squared of this sample's accepted speed correction (NaN: none)
+N_S = 70
 N_HIST_MAX = 512

@@ -29,6 +29,7 @@ __all__ = [
     "consistency",
     "distribution",
     "error_after_settling",
+    "nis_consistency",
     "settled_mask",
     "settling_time_s",
 ]
@@ -260,6 +261,28 @@ def consistency(
     nees = float(np.mean(z2[idx]))
     lo, hi = chi2_band(len(idx))
     return Consistency(nees, lo, hi, bool(lo <= nees <= hi), within, int(len(idx)))
+
+
+def nis_consistency(t_s: np.ndarray, nis: np.ndarray, settle_s: float = 10.0, *,
+                    every_s: float = 1.0) -> tuple[float, float, float, bool, int] | None:
+    """NIS test of a scalar measurement (needs no truth): ``(mean, band_low, band_high, in_band, samples)``.
+
+    ``nis`` holds each sample's normalised innovation squared (NaN where there was no correction). As for the
+    NEES (:func:`consistency`), one sample every ``every_s`` seconds after ``settle_s`` is averaged and compared with
+    the χ²(1) 95 % band for that many independent samples. ``None`` when no sample qualifies.
+    """
+    t = np.asarray(t_s, dtype=float)
+    v = np.asarray(nis, dtype=float)
+    m = (t >= t[0] + settle_s) & np.isfinite(v) if t.size else np.zeros(0, bool)
+    if not np.any(m):
+        return None
+    t, v = t[m], v[m]
+    grid = t[0] + every_s * np.arange(int((t[-1] - t[0]) // every_s) + 1)
+    idx = np.unique(np.searchsorted(t, grid))
+    idx = idx[idx < len(t)]
+    mean = float(np.mean(v[idx]))
+    lo, hi = chi2_band(len(idx))
+    return mean, lo, hi, bool(lo <= mean <= hi), int(len(idx))
 
 
 def distribution(values) -> dict[str, float]:

@@ -13,6 +13,8 @@ The runs come from outside (a list of specs and a picklable ``make_trace(spec) -
 - ``mass_nees``, ``mass_nees_in_band``, ``mass_within_2sigma`` and the same for the slope against the
   train-averaged slope (``slope_*``) and against the slope under the sensors (``slope_local_*``) -- consistency
   of the reported standard deviations;
+- ``speed_nis``, ``speed_nis_in_band`` -- NIS of the speed corrections (estimators that report ``extras["nis"]``),
+  the consistency test that needs no truth;
 - ``recovered_*`` -- errors from 10 s after a finite fault ends (``meta["fault_end_s"]``);
 - ``finite`` (no NaN/inf ever output), ``seconds`` (run time, for information only).
 
@@ -37,7 +39,7 @@ import numpy as np
 
 from uuom_core.trace import Trace
 
-from .metrics import consistency, error_after_settling, settling_time_s
+from .metrics import consistency, error_after_settling, nis_consistency, settling_time_s
 from .registry import available, get_class, make
 
 __all__ = ["MASS_SETTLE_TOL_PCT", "cached_rows", "fingerprint", "run_protocol", "score_trace", "usable_estimators"]
@@ -163,6 +165,10 @@ def score_trace(trace: Trace, name: str, settle_s: float = 10.0) -> dict[str, An
     row.update(_consistency("mass", t, s.mass_kg, s.mass_std_kg, m_truth, settle_s))
     row.update(_consistency("slope", t, slope_deg, slope_std_deg, tr_truth, settle_s))
     row.update(_consistency("slope_local", t, slope_deg, slope_std_deg, s_truth, settle_s))
+    nis = s.extras.get("nis")
+    c_nis = nis_consistency(t, nis, settle_s) if nis is not None else None
+    row["speed_nis"] = c_nis[0] if c_nis is not None else math.nan
+    row["speed_nis_in_band"] = c_nis[3] if c_nis is not None else None
     fault_end = trace.meta.get("fault_end_s")
     if fault_end is not None:
         after = float(fault_end) + RECOVERY_S - float(t[0])

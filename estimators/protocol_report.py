@@ -100,8 +100,8 @@ def _consistency_table(rows: list[dict], names: list[str]) -> list[str]:
     out = [
         "| estimator | world | mass settled to 2 % by the end (% runs) / median settling s | mass NEES in χ² band "
         "/ σ too wide / too narrow (% runs) | truth within ±2σ, mass (mean %) | slope NEES in band / too wide / "
-        "too narrow (% runs) | within ±2σ, slope (mean %) |",
-        "| --- | --- | --- | --- | ---: | --- | ---: |",
+        "too narrow (% runs) | within ±2σ, slope (mean %) | speed NIS in band (% runs) / median |",
+        "| --- | --- | --- | --- | ---: | --- | ---: | --- |",
     ]
     for name, world, rs in _per_world(rows, names, (("plant", "plant"), ("point", "point mass"))):
         st = np.array(_col(rs, "mass_settle_s"))
@@ -110,8 +110,11 @@ def _consistency_table(rows: list[dict], names: list[str]) -> list[str]:
         med = float(np.median(st[np.isfinite(st)])) if np.any(np.isfinite(st)) else math.nan
         w_m = np.nanmean(_col(rs, "mass_within_2sigma")) * 100 if rs[0].get("provides_mass") else math.nan
         w_s = np.nanmean(_col(rs, "slope_within_2sigma")) * 100 if rs[0].get("provides_slope") else math.nan
+        nis = [(r.get("speed_nis_in_band"), r.get("speed_nis")) for r in rs if r.get("speed_nis_in_band") is not None]
+        nis_txt = (f"{_f(100 * sum(1 for b, _ in nis if b) / len(nis), 0)} / {_f(float(np.median([x for _, x in nis])), 2)}"
+                   if nis else "–")
         out.append(f"| `{name}` | {world} | {_f(settled, 0)} / {_f(med, 1)} | {_nees_split(rs, 'mass')} | "
-                   f"{_f(w_m, 0)} | {_nees_split(rs, 'slope')} | {_f(w_s, 0)} |")
+                   f"{_f(w_m, 0)} | {_nees_split(rs, 'slope')} | {_f(w_s, 0)} | {nis_txt} |")
     return out
 
 
@@ -333,7 +336,9 @@ def write_report(rows: list[dict[str, Any]], out_dir: str | Path, *, command: st
     lines += ["", "## Settling and consistency (random runs)", "",
               "Settling: time after which the mass error stays within 2 % to the end of the run. NEES: mean of "
               "(error/σ)² over one sample a second after settling, in its χ² 95 % band (slope against the "
-              "train-averaged slope). ±2σ: share of samples whose truth lies within ±2σ of the estimate.", ""]
+              "train-averaged slope). ±2σ: share of samples whose truth lies within ±2σ of the estimate. Speed NIS (where "
+              "an estimator reports its innovations): mean of ε²/(HP⁻Hᵀ + R) of the speed corrections, one a "
+              "second after settling, in its χ²(1) 95 % band — the test that needs no truth.", ""]
     lines += _consistency_table(ok, names)
     if mu_by_run:
         lines += ["", "## Mass error against the running-resistance mismatch (random runs)", "",

@@ -36,6 +36,21 @@ def test_bare_ppo_smoke_with_default_hyperparameters(tmp_path):
     assert a.shape == (1,) and np.all(np.isfinite(a))
 
 
+def test_training_is_reproducible_from_its_seed(tmp_path):
+    """Two trainings with the same seed in two worker processes give the same network and normalisation, so the
+    per-observer policies that are not shipped are rebuilt exactly by their command."""
+    import torch
+
+    runs = [train(TrainConfig(algo="ppo", residual=0.0, shield=False, observer="dffrls-aekf", timesteps=512,
+                              n_envs=2, seed=3, run_dir=tmp_path / name, eval_freq=0, checkpoint_freq=0,
+                              progress=False, hyperparams=["n_steps=128", "batch_size=64"], env_kwargs=dict(SHORT)))
+            for name in ("a", "b")]
+    a, b = (ModelPolicy(r) for r in runs)
+    for (ka, va), (kb, vb) in zip(a.model.policy.state_dict().items(), b.model.policy.state_dict().items()):
+        assert ka == kb and torch.equal(va, vb), ka
+    np.testing.assert_array_equal(a.vecnorm.obs_rms.mean, b.vecnorm.obs_rms.mean)
+
+
 def test_shipped_policies_load_and_drive_one_episode():
     runs = sorted(p.parent for p in POLICIES.glob("*/model.zip"))
     assert runs, f"no shipped policy under {POLICIES}"

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from agents.algos import ALGOS
+from uuom_gym.registration import ENV_IDS, env_kwargs_of
 
 
 class _Parser(argparse.ArgumentParser):
@@ -54,6 +55,8 @@ def train_parser() -> argparse.ArgumentParser:
     )
     ap.add_argument("--algo", choices=ALGOS, default="ppo")
     ap.add_argument("--observer", default="dffrls-aekf", help="estimator name, 'oracle' or 'none'")
+    ap.add_argument("--env", default="UUOM-Track-v0", choices=ENV_IDS,
+                    help="registered env id: its configuration under --env-kwargs, its entry of the YAML")
     ap.add_argument("--timesteps", type=int, default=None, help="total env steps (default: n_timesteps of the YAML)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--n-envs", type=int, default=None, help="parallel envs (default: n_envs of the YAML)")
@@ -87,7 +90,7 @@ def train_config(args: argparse.Namespace) -> Any:
     return TrainConfig(
         algo=args.algo, observer=args.observer, timesteps=args.timesteps, seed=args.seed, n_envs=args.n_envs,
         shield=args.shield, residual=args.residual, log_dir=args.log_dir, run_dir=args.run_dir,
-        conf_file=args.conf_file, hyperparams=list(args.hyperparams), env_kwargs=args.env_kwargs,
+        conf_file=args.conf_file, hyperparams=list(args.hyperparams), env_kwargs=args.env_kwargs, env_id=args.env,
         eval_freq=args.eval_freq, eval_episodes=args.eval_episodes, checkpoint_freq=args.checkpoint_freq,
         subproc=not args.no_subproc, progress=not args.no_progress, fresh=args.fresh, resume=args.resume,
         device=args.device,
@@ -131,6 +134,8 @@ def evaluate_parser() -> argparse.ArgumentParser:
     ap.add_argument("--seed-base", type=int, default=DEFAULT_SEED_BASE)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--ray", action="store_true", help="run the episodes on Ray instead of local processes")
+    ap.add_argument("--env", default="UUOM-Track-v0", choices=ENV_IDS,
+                    help="registered env id: its configuration under --env-kwargs (use the id a policy was trained on)")
     ap.add_argument("--env-kwargs", type=_json_object, default={})
     ap.add_argument("--out", type=Path, default=Path("results") / "eval")
     ap.add_argument("--plot-seed", type=int, default=None, help="episode drawn speed-vs-limit (default: first seed)")
@@ -156,8 +161,8 @@ def evaluate_main(argv: list[str] | None = None, prog: str = "uuom-evaluate") ->
 
     config = EvalConfig(
         controllers=list(args.controllers), observers=list(args.observers), episodes=args.episodes,
-        seed_base=args.seed_base, workers=args.workers, use_ray=args.ray, env_kwargs=args.env_kwargs,
-        out=args.out, plot_seed=args.plot_seed, plot_observer=args.plot_observer, bars_png=args.bars_png,
+        seed_base=args.seed_base, workers=args.workers, use_ray=args.ray,
+        env_kwargs={**env_kwargs_of(args.env), **args.env_kwargs}, out=args.out, plot_seed=args.plot_seed, plot_observer=args.plot_observer, bars_png=args.bars_png,
         episode_png=args.episode_png, merge=args.merge, quiet=args.quiet, pool=dict(args.pool or []),
         command=" ".join([prog, *(sys.argv[1:] if argv is None else argv)]),
     )

@@ -21,8 +21,9 @@ class TrainConfigError(ValueError):
     """A training input that cannot work (bad count, unknown observer, malformed hyperparameter, ...)."""
 
 
-def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[str] | None = None) -> dict[str, Any]:
-    """The rl-zoo-style YAML entry for ``UUOM-Track-v0`` with ``key=value`` overrides applied.
+def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[str] | None = None,
+                     env_id: str = ENV_ID) -> dict[str, Any]:
+    """The rl-zoo-style YAML entry for ``env_id`` (default ``UUOM-Track-v0``) with ``key=value`` overrides applied.
 
     An override of a key the file has must keep its kind (number, bool, string); a new key must be an argument
     of the algorithm's constructor.
@@ -41,10 +42,10 @@ def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[s
         data = yaml.load(path.read_text(), Loader=yaml.UnsafeLoader)  # rl-zoo files use !!float tags
     except yaml.YAMLError as exc:
         raise TrainConfigError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    if not isinstance(data, dict) or ENV_ID not in data:
+    if not isinstance(data, dict) or env_id not in data:
         keys = ", ".join(map(str, data)) if isinstance(data, dict) else type(data).__name__
-        raise TrainConfigError(f"{path} has no '{ENV_ID}' entry (has: {keys})")
-    hp = dict(data[ENV_ID])
+        raise TrainConfigError(f"{path} has no '{env_id}' entry (has: {keys})")
+    hp = dict(data[env_id])
     accepted = _constructor_args(algo)
     for item in overrides or []:
         if "=" not in item:

@@ -31,6 +31,7 @@ from typing import Any
 from agents.algos import ALGOS, algo_class
 from agents.checkpoints import atomic_write, atomic_write_text, clean_partial, latest_checkpoint
 from agents.hyperparameters import TrainConfigError, evaluate_str, load_hyperparams, wrappers_from_env_wrapper
+from uuom_gym.registration import env_kwargs_of
 
 ENV_ID = "UUOM-Track-v0"
 EVAL_SEED_OFFSET = 1_000_000
@@ -53,7 +54,8 @@ class TrainConfig:
 
     ``timesteps`` / ``n_envs`` ``None``: the YAML's ``n_timesteps`` / ``n_envs``. ``shield`` / ``residual``
     ``None``: the YAML's ``env_wrapper``. ``resume``: continue from the newest checkpoint of the run directory
-    (required when it has one, unless ``fresh`` starts over).
+    (required when it has one, unless ``fresh`` starts over). ``env_id``: a registered id; its configuration is
+    the base of ``env_kwargs`` (recorded in full in the run's ``config.json``) and its entry of the YAML is read.
     """
 
     algo: str = "ppo"
@@ -68,6 +70,7 @@ class TrainConfig:
     conf_file: Path | None = None
     hyperparams: list[str] = field(default_factory=list)
     env_kwargs: dict[str, Any] = field(default_factory=dict)
+    env_id: str = ENV_ID
     eval_freq: int = 50_000
     eval_episodes: int = 3
     checkpoint_freq: int = 25_000
@@ -140,6 +143,7 @@ class _Plan:
     normalize: dict[str, Any] | None
     hp: dict[str, Any]
     run_dir: Path
+    env_kwargs: dict[str, Any]  # the env id's registered configuration with the config's on top
 
 
 def plan(config: TrainConfig) -> _Plan:
@@ -168,7 +172,11 @@ def plan(config: TrainConfig) -> _Plan:
         raise TrainConfigError("fresh and resume exclude each other")
     if not isinstance(c.env_kwargs, dict):
         raise TrainConfigError(f"env_kwargs must be a JSON object, got {c.env_kwargs!r}")
-    hp = load_hyperparams(c.algo, c.conf_file, c.hyperparams)
+    try:
+        env_kwargs = {**env_kwargs_of(c.env_id), **c.env_kwargs}
+    except ValueError as exc:
+        raise TrainConfigError(str(exc)) from None
+    hp = load_hyperparams(c.algo, c.conf_file, c.hyperparams, c.env_id)
     n_envs = c.n_envs if c.n_envs is not None else hp.pop("n_envs", 1)
     total = c.timesteps if c.timesteps is not None else hp.pop("n_timesteps", 100_000)
     hp.pop("n_envs", None)
@@ -186,10 +194,10 @@ def plan(config: TrainConfig) -> _Plan:
         hp["policy_kwargs"] = evaluate_str(hp["policy_kwargs"], "policy_kwargs")
     for key in _ZOO_ONLY_KEYS:
         hp.pop(key, None)
-    _check_env(c.observer, c.env_kwargs, shield, residual)
+    _check_env(c.observer, env_kwargs, shield, residual)
     run_dir = Path(c.run_dir) if c.run_dir is not None else Path(c.log_dir) / run_dir_name(
         c.algo, c.observer, c.seed, shield, residual)
-    return _Plan(total, n_envs, shield, residual, policy, norm_kwargs, hp, run_dir)
+    return _Plan(total, n_envs, shield, residual, policy, norm_kwargs, hp, run_dir, env_kwargs)
 
 
 def _whole(v: Any, name: str) -> int:
@@ -236,7 +244,7 @@ def train(config: TrainConfig) -> Path:
         )
     record = {
         "algo": config.algo, "observer": config.observer, "seed": config.seed, "n_envs": p.n_envs,
-        "timesteps": p.total, "shield": p.shield, "residual": p.residual, "env_kwargs": config.env_kwargs,
+        "timesteps": p.total, "shield": p.shield, "residual": p.residual, "env_kwargs": p.env_kwargs,
         "hyperparams": {k: repr(v) for k, v in p.hp.items()}, "normalize": p.normalize,
     }
     if resume is not None:
@@ -267,7 +275,7 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any) -
     torch.set_num_threads(1)  # the env processes need the cores; small MLPs gain nothing from threads
     run_dir, ckpt_dir = p.run_dir, p.run_dir / "checkpoints"
     cls = algo_class(config.algo)
-    venv = make_vec_env(config.observer, config.seed, p.n_envs, p.shield, config.env_kwargs, config.subproc, p.residual)
+    venv = make_vec_env(config.observer, config.seed, p.n_envs, p.shield, p.env_kwargs, config.subproc, p.residual)
     eval_venv = None
     try:
         if resume is not None:
@@ -292,7 +300,7 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any) -
         model.tensorboard_log = str(run_dir / "tb")
         eval_cb = None
         if config.eval_freq > 0:
-            eval_venv = make_vec_env(config.observer, config.seed + EVAL_SEED_OFFSET, 1, p.shield, config.env_kwargs,
+            eval_venv = make_vec_env(config.observer, config.seed + EVAL_SEED_OFFSET, 1, p.shield, p.env_kwargs,
                                      False, p.residual)
             if p.normalize is not None:
                 kw = {k: v for k, v in p.normalize.items() if k not in ("norm_reward", "training")}

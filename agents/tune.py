@@ -204,7 +204,8 @@ def run_trial(base: TrainConfig, params: dict[str, Any], run_dir: Path, val_seed
     t0 = time.time()
     config = trial_config(base, params, Path(run_dir))
     train(config)
-    kw = json.dumps(config.env_kwargs, sort_keys=True)
+    # the run's whole configuration (the env id's with the sweep's on top), as uuom-train recorded it
+    kw = json.dumps(json.loads((Path(run_dir) / "config.json").read_text())["env_kwargs"], sort_keys=True)
     oracle_s = {}
     for s in val_seeds:
         ref = run_episode(Task("oracle", "oracle", s, kw))

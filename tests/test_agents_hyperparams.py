@@ -96,3 +96,41 @@ def test_rl_zoo_trains_the_same_set_up(tmp_path):
     out = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     assert list(tmp_path.rglob("UUOM-Track-v0.zip"))
+
+
+def test_speed_target_entry_is_the_bare_set_up_on_its_env_id():
+    from agents.training import TrainConfig, plan
+    from uuom_gym.registration import SPEED_TARGET_KWARGS
+
+    hp = load_hyperparams("ppo", env_id="UUOM-Track-SpeedTarget-v0")
+    base = load_hyperparams("ppo")
+    assert wrappers_from_env_wrapper(hp["env_wrapper"]) == (False, 0.0) and hp["n_timesteps"] == 3e5
+    assert {k: v for k, v in hp.items() if k not in ("env_wrapper", "n_timesteps")} == {
+        k: v for k, v in base.items() if k not in ("env_wrapper", "n_timesteps")}
+    p = plan(TrainConfig(env_id="UUOM-Track-SpeedTarget-v0", env_kwargs={"track_length_m": [50.0, 60.0]}))
+    assert (p.shield, p.residual, p.total) == (False, 0.0, 300_000)
+    assert p.env_kwargs == {**SPEED_TARGET_KWARGS, "track_length_m": [50.0, 60.0]}
+    env = gym.make("UUOM-Track-SpeedTarget-v0", observer="oracle")
+    assert env.unwrapped.config["action_mode"] == "speed_target"
+    assert list(env.unwrapped.config["speed_target_range"]) == [0.8, 1.3]
+    env.close()
+
+
+def test_unknown_env_id_is_named():
+    from agents.training import TrainConfig, plan
+
+    with pytest.raises(TrainConfigError, match="unknown env id 'UUOM-Nope-v0'"):
+        plan(TrainConfig(env_id="UUOM-Nope-v0"))
+
+
+@pytest.mark.slow
+def test_rl_zoo_trains_the_speed_target_set_up(tmp_path):
+    """rl_zoo3 on the registered speed-target id: no wrappers, the speed-target action."""
+    pytest.importorskip("rl_zoo3", reason="the optional [zoo] extra is not installed")
+    cmd = [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "UUOM-Track-SpeedTarget-v0",
+           "--gym-packages", "uuom_gym", "--conf-file", str(ROOT / "agents/hyperparams/ppo.yml"), "-n", "1024",
+           "--eval-freq", "-1", "--log-folder", str(tmp_path), "--env-kwargs", "track_length_m:[50.0,60.0]",
+           "-params", "n_steps:256", "batch_size:64", "n_epochs:2", "--vec-env", "dummy"]
+    out = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert list(tmp_path.rglob("UUOM-Track-SpeedTarget-v0.zip"))

@@ -51,6 +51,23 @@ def test_training_is_reproducible_from_its_seed(tmp_path):
     np.testing.assert_array_equal(a.vecnorm.obs_rms.mean, b.vecnorm.obs_rms.mean)
 
 
+def test_env_id_trains_what_its_configuration_trains(tmp_path):
+    """``--env UUOM-Track-SpeedTarget-v0`` is the §8 command (bare, the speed-target kwargs): same network."""
+    import torch
+
+    from uuom_gym.registration import SPEED_TARGET_KWARGS
+
+    common = dict(algo="ppo", observer="oracle", timesteps=256, n_envs=1, seed=4, eval_freq=0, checkpoint_freq=0,
+                  progress=False, subproc=False, hyperparams=["n_steps=128", "batch_size=64"])
+    a = train(TrainConfig(**common, env_id="UUOM-Track-SpeedTarget-v0", env_kwargs=dict(SHORT), run_dir=tmp_path / "a"))
+    b = train(TrainConfig(**common, shield=False, residual=0.0, env_kwargs={**SPEED_TARGET_KWARGS, **SHORT},
+                          run_dir=tmp_path / "b"))
+    ca, cb = (json.loads((r / "config.json").read_text()) for r in (a, b))
+    assert ca["env_kwargs"] == cb["env_kwargs"] and ca["shield"] is cb["shield"] is False
+    pa, pb = ModelPolicy(a).model.policy.state_dict(), ModelPolicy(b).model.policy.state_dict()
+    assert all(torch.equal(pa[k], pb[k]) for k in pa)
+
+
 def test_shipped_policies_load_and_drive_one_episode():
     runs = sorted(p.parent for p in POLICIES.glob("*/model.zip"))
     assert runs, f"no shipped policy under {POLICIES}"

@@ -171,7 +171,9 @@ class UUOMTrackEnv(gym.Env):
     * v0 (rev. 5, no id change, default behaviour unchanged): opt-in config ``speed_target_range=(lo, hi)``, the
       fractions of the cautious limit that ``a = -1`` and ``a = +1`` ask for. Reason (docs/rl.md §8): the rev. 4
       policy stayed near its untrained starting point, 58 % of the cap (1.9x the oracle's trip time); a span
-      around 1 starts it at the cautious limit and lets it learn where to go above it.
+      around 1 starts it at the cautious limit and lets it learn where to go above it. The id
+      ``UUOM-Track-SpeedTarget-v0`` registers this class with the rev. 5 speed-target configuration
+      (``uuom_gym.registration.SPEED_TARGET_KWARGS``).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -36,7 +36,7 @@ from uuom_core.trace import Trace, TraceBlocks, TraceFormatError, TraceWarning, 
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleFileError, VehicleParams
 
 from .base import EstimateSeries
-from .metrics import ErrorAccumulator
+from .metrics import ErrorAccumulator, chi2_band
 from .registry import UnknownEstimatorError, available, get_class
 
 __all__ = ["main", "summarize", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "output_columns"]
@@ -126,6 +126,10 @@ def _load_vehicle(path: str | None) -> VehicleParams:
         raise _CliError(f"{p}:1: cannot read vehicle file: {exc}") from None
 
 
+NIS_EVERY_S = 1.0
+"""Spacing of the speed-NIS samples the summary averages (as the protocol's NEES and NIS)."""
+
+
 class _Summary:
     """The error summary accumulated block by block (see :func:`summarize`)."""
 
@@ -139,11 +143,20 @@ class _Summary:
         self._kg = ErrorAccumulator(settle_s)
         self._pct = ErrorAccumulator(settle_s, relative=True)
         self._deg = ErrorAccumulator(settle_s)
+        self._nis: list[float] = []  # one speed NIS a second after the settle time (needs no truth)
+        self._nis_next = -math.inf
 
-    def add(self, part: Trace, mass_kg: np.ndarray, slope_deg: np.ndarray) -> None:
+    def add(self, part: Trace, mass_kg: np.ndarray, slope_deg: np.ndarray, nis: np.ndarray | None = None) -> None:
         t = part["t_s"]
         if self._t_start is None:
             self._t_start = float(t[0]) + self.settle_s
+            self._nis_next = self._t_start
+        if nis is not None:
+            # the first finite value at or after each whole second: the grid of metrics.nis_consistency, per block
+            for i in np.flatnonzero(np.isfinite(nis) & (t >= self._nis_next)):
+                if t[i] >= self._nis_next:
+                    self._nis.append(float(nis[i]))
+                    self._nis_next += NIS_EVERY_S * (1 + math.floor((t[i] - self._nis_next) / NIS_EVERY_S))
         self.samples += len(t)
         self.after += int(np.count_nonzero(t >= self._t_start))
         if self.mass:
@@ -164,6 +177,11 @@ class _Summary:
             deg = self._deg.result()
             out["slope"] = None if deg is None else {
                 "rmse_deg": deg.rmse, "max_abs_error_deg": deg.max_abs, "samples": deg.samples}
+        if self._nis:
+            lo, hi = chi2_band(len(self._nis))
+            mean = float(np.mean(self._nis))
+            out["speed_nis"] = {"mean": mean, "band_low": lo, "band_high": hi, "in_band": bool(lo <= mean <= hi),
+                                "samples": len(self._nis)}
         return out
 
 
@@ -175,7 +193,7 @@ def summarize(trace: Trace, series: EstimateSeries, settle_s: float = 10.0,
     (empty cell) are left out (:func:`estimators.metrics.error_after_settling`). Returns a JSON-ready dict.
     """
     summary = _Summary(settle_s, provides, list(trace.columns))
-    summary.add(trace, series.mass_kg, series.slope_deg)
+    summary.add(trace, series.mass_kg, series.slope_deg, series.extras.get("nis"))
     return summary.result()
 
 
@@ -193,6 +211,10 @@ def _format_summary(s: dict[str, Any], name: str, source: str) -> str:
                      f"  slope: RMSE {m['rmse_deg']:.3f} deg, max |error| {m['max_abs_error_deg']:.3f} deg")
     if "mass" not in s and "slope" not in s:
         lines.append("  (no error summary: the trace has no truth for what this estimator estimates)")
+    if "speed_nis" in s:
+        n = s["speed_nis"]
+        lines.append(f"  speed NIS (no truth needed): {n['mean']:.2f}, {'inside' if n['in_band'] else 'outside'} its "
+                     f"chi2 95 % band [{n['band_low']:.2f}, {n['band_high']:.2f}] ({n['samples']} samples, one a second)")
     return "\n".join(lines)
 
 
@@ -237,7 +259,7 @@ def _estimate_blocks(estimator: Any, blocks: TraceBlocks, columns: list[str], ou
             t_prev = float(part["t_s"][-1])
             if writer is not None:
                 writer.write([_series_column(series, c) for c in columns])
-            summary.add(part, series.mass_kg, series.slope_deg)
+            summary.add(part, series.mass_kg, series.slope_deg, series.extras.get("nis"))
             for c in has_values:
                 has_values[c] = has_values[c] or bool(np.isfinite(part[c]).any())
         lacking = [c for c, ok in has_values.items() if not ok]

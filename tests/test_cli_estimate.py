@@ -66,6 +66,27 @@ def test_json_summary_matches_direct_computation(good_trace: Path, tmp_path: Pat
     assert s["settle_s"] == 5.0 and s["estimator"] == "dffrls-aekf"
 
 
+def test_speed_nis_in_the_summary_needs_no_truth(good_trace: Path, tmp_path: Path, capsys) -> None:
+    """The NIS of the speed corrections is reported for the estimators that expose them, with or without truth
+    columns, and block-by-block reading gives the protocol's number (one sample a second after the settle time)."""
+    from estimators.metrics import nis_consistency
+
+    rc, stdout, _ = _run(capsys, str(good_trace), "--estimator", "fused", "--json", "--settle-s", "5")
+    assert rc == 0
+    nis = json.loads(stdout)["speed_nis"]
+    tr = read_trace_csv(good_trace)
+    ref = nis_consistency(tr["t_s"], estimators.make("fused").run(tr).extras["nis"], 5.0)
+    assert nis["samples"] == ref[4] and nis["mean"] == pytest.approx(ref[0]) and nis["in_band"] == ref[3]
+    bare = tmp_path / "bare.csv"
+    cols = ["t_s", "torque_nm", "speed_mps", "accel_mps2"]  # no truth columns
+    np.savetxt(bare, np.column_stack([tr[c] for c in cols]), delimiter=",", header=",".join(cols), comments="",
+               fmt="%.10g")
+    rc, stdout, _ = _run(capsys, str(bare), "--estimator", "dffrls-aekf")
+    assert rc == 0 and "speed NIS (no truth needed)" in stdout
+    rc, stdout, _ = _run(capsys, str(good_trace), "--estimator", "rls", "--json")
+    assert "speed_nis" not in json.loads(stdout)
+
+
 def test_output_roundtrip_matches_run(good_trace: Path, tmp_path: Path, capsys) -> None:
     out = tmp_path / "e.csv"
     assert _run(capsys, str(good_trace), "--estimator", "ffrls", "--out", str(out))[0] == 0

@@ -17,6 +17,7 @@ from agents.training import TrainConfig, train
 
 ROOT = Path(__file__).resolve().parents[1]
 POLICIES = ROOT / "results" / "rl" / "policies"
+STUDY_POLICIES = ROOT / "results" / "agents" / "observer_study_ppo" / "policies"
 SHORT = {"track_length_m": [50.0, 60.0]}
 
 
@@ -80,6 +81,19 @@ def test_shipped_policies_load_and_drive_one_episode():
         assert row["steps"] > 0 and row["termination"], row
         for key in ("cost", "trip_time_s", "distance_m"):
             assert math.isfinite(float(row[key])), (run.name, key, row[key])
+
+
+def test_observer_study_policies_are_shipped_and_drive_with_their_observer():
+    """docs/rl.md §9: each per-observer policy loads and drives one short held-out track with the observer it was
+    trained with (no performance assert: several of those observers trip by design of the study)."""
+    runs = sorted(p.parent for p in STUDY_POLICIES.glob("*/model.zip"))
+    assert len(runs) >= 8, f"expected the study's policies under {STUDY_POLICIES}"
+    for run in runs:
+        cfg = json.loads((run / "config.json").read_text())
+        assert cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["timesteps"] == 300_000
+        assert cfg["env_kwargs"]["speed_target_range"] == [0.8, 1.3] and (run / "vecnormalize.pkl").exists()
+        row = run_episode(Task(str(run), cfg["observer"], 100_000, json.dumps({**cfg["env_kwargs"], **SHORT})))
+        assert row["steps"] > 0 and row["termination"] and math.isfinite(float(row["cost"])), (run.name, row)
 
 
 def test_station_cap_policy_arrives_on_a_short_held_out_track():

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -29,6 +30,7 @@ __all__ = [
     "consistency",
     "distribution",
     "error_after_settling",
+    "NisTest",
     "nis_consistency",
     "settled_mask",
     "settling_time_s",
@@ -254,18 +256,32 @@ def consistency(
     with np.errstate(divide="ignore", invalid="ignore"):
         z2 = np.where((sd > 0) & np.isfinite(sd) & np.isfinite(err), (err / sd) ** 2, np.inf)
     within = float(np.mean(z2 <= 4.0))
-    # one sample per `every_s` seconds: the first sample at or after each grid time
-    grid = t[0] + every_s * np.arange(int((t[-1] - t[0]) // every_s) + 1)
-    idx = np.unique(np.searchsorted(t, grid))
-    idx = idx[idx < len(t)]
+    idx = _one_per(t, every_s)
     nees = float(np.mean(z2[idx]))
     lo, hi = chi2_band(len(idx))
     return Consistency(nees, lo, hi, bool(lo <= nees <= hi), within, int(len(idx)))
 
 
+def _one_per(t: np.ndarray, every_s: float) -> np.ndarray:
+    """Indices of one sample per ``every_s`` seconds: the first at or after each grid time from ``t[0]``."""
+    grid = t[0] + every_s * np.arange(int((t[-1] - t[0]) // every_s) + 1)
+    idx = np.unique(np.searchsorted(t, grid))
+    return idx[idx < len(t)]
+
+
+class NisTest(NamedTuple):
+    """Result of :func:`nis_consistency`: the mean NIS, its χ² 95 % band, whether it lies inside, samples used."""
+
+    mean: float
+    band_low: float
+    band_high: float
+    in_band: bool
+    samples: int
+
+
 def nis_consistency(t_s: np.ndarray, nis: np.ndarray, settle_s: float = 10.0, *,
-                    every_s: float = 1.0) -> tuple[float, float, float, bool, int] | None:
-    """NIS test of a scalar measurement (needs no truth): ``(mean, band_low, band_high, in_band, samples)``.
+                    every_s: float = 1.0) -> NisTest | None:
+    """NIS test of a scalar measurement (needs no truth).
 
     ``nis`` holds each sample's normalised innovation squared (NaN where there was no correction). As for the
     NEES (:func:`consistency`), one sample every ``every_s`` seconds after ``settle_s`` is averaged and compared with
@@ -277,12 +293,10 @@ def nis_consistency(t_s: np.ndarray, nis: np.ndarray, settle_s: float = 10.0, *,
     if not np.any(m):
         return None
     t, v = t[m], v[m]
-    grid = t[0] + every_s * np.arange(int((t[-1] - t[0]) // every_s) + 1)
-    idx = np.unique(np.searchsorted(t, grid))
-    idx = idx[idx < len(t)]
+    idx = _one_per(t, every_s)
     mean = float(np.mean(v[idx]))
     lo, hi = chi2_band(len(idx))
-    return mean, lo, hi, bool(lo <= mean <= hi), int(len(idx))
+    return NisTest(mean, lo, hi, bool(lo <= mean <= hi), int(len(idx)))
 
 
 def distribution(values) -> dict[str, float]:

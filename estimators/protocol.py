@@ -167,8 +167,8 @@ def score_trace(trace: Trace, name: str, settle_s: float = 10.0) -> dict[str, An
     row.update(_consistency("slope_local", t, slope_deg, slope_std_deg, s_truth, settle_s))
     nis = s.extras.get("nis")
     c_nis = nis_consistency(t, nis, settle_s) if nis is not None else None
-    row["speed_nis"] = c_nis[0] if c_nis is not None else math.nan
-    row["speed_nis_in_band"] = c_nis[3] if c_nis is not None else None
+    row["speed_nis"] = c_nis.mean if c_nis is not None else math.nan
+    row["speed_nis_in_band"] = c_nis.in_band if c_nis is not None else None
     fault_end = trace.meta.get("fault_end_s")
     if fault_end is not None:
         after = float(fault_end) + RECOVERY_S - float(t[0])

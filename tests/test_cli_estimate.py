@@ -76,7 +76,7 @@ def test_speed_nis_in_the_summary_needs_no_truth(good_trace: Path, tmp_path: Pat
     nis = json.loads(stdout)["speed_nis"]
     tr = read_trace_csv(good_trace)
     ref = nis_consistency(tr["t_s"], estimators.make("fused").run(tr).extras["nis"], 5.0)
-    assert nis["samples"] == ref[4] and nis["mean"] == pytest.approx(ref[0]) and nis["in_band"] == ref[3]
+    assert nis["samples"] == ref.samples and nis["mean"] == pytest.approx(ref.mean) and nis["in_band"] == ref.in_band
     bare = tmp_path / "bare.csv"
     cols = ["t_s", "torque_nm", "speed_mps", "accel_mps2"]  # no truth columns
     np.savetxt(bare, np.column_stack([tr[c] for c in cols]), delimiter=",", header=",".join(cols), comments="",

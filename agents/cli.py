@@ -162,8 +162,8 @@ def evaluate_main(argv: list[str] | None = None, prog: str = "uuom-evaluate") ->
     config = EvalConfig(
         controllers=list(args.controllers), observers=list(args.observers), episodes=args.episodes,
         seed_base=args.seed_base, workers=args.workers, use_ray=args.ray,
-        env_kwargs={**env_kwargs_of(args.env), **args.env_kwargs}, out=args.out, plot_seed=args.plot_seed, plot_observer=args.plot_observer, bars_png=args.bars_png,
-        episode_png=args.episode_png, merge=args.merge, quiet=args.quiet, pool=dict(args.pool or []),
+        env_kwargs={**env_kwargs_of(args.env), **args.env_kwargs}, out=args.out, plot_seed=args.plot_seed,
+        plot_observer=args.plot_observer, bars_png=args.bars_png, episode_png=args.episode_png, merge=args.merge, quiet=args.quiet, pool=dict(args.pool or []),
         command=" ".join([prog, *(sys.argv[1:] if argv is None else argv)]),
     )
     try:

@@ -29,7 +29,7 @@ import itertools
 import json
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -76,7 +76,6 @@ class SweepConfig:
     out: Path = Path("runs/tune")
     seed: int = 0
     command: str | None = None
-    trial_dirs: list[Path] = field(default_factory=list)
 
 
 # --- the search space ----------------------------------------------------------------------------------------
@@ -215,10 +214,10 @@ def run_trial(base: TrainConfig, params: dict[str, Any], run_dir: Path, val_seed
     return {**score(rows, oracle_s, failure_ratio), "wall_s": time.time() - t0, "run_dir": str(run_dir)}
 
 
-def _trial_name(i: int, params: dict[str, Any]) -> str:
+def _slug(params: dict[str, Any]) -> str:
+    """A trial's values as a directory-name fragment (``learning_rate-0.0003_seed-1``)."""
     text = "_".join(f"{k}-{v}" for k, v in sorted(params.items()))
-    safe = "".join(ch if ch.isalnum() or ch in "-_.e" else "" for ch in text)[:80]
-    return f"trial{i:03d}_{safe}"
+    return "".join(ch if ch.isalnum() or ch in "-_." else "" for ch in text)[:80]
 
 
 # --- the sweep -----------------------------------------------------------------------------------------------
@@ -245,7 +244,7 @@ def sweep(config: SweepConfig) -> list[dict[str, Any]]:
         trials = [p for p in grid(config.space) for _ in range(config.samples)]
         rows = []
         for i, params in enumerate(trials):
-            res = run_trial(base, params, out / "trials" / _trial_name(i, params), val_seeds, config.failure_ratio)
+            res = run_trial(base, params, out / "trials" / f"trial{i:03d}_{_slug(params)}", val_seeds, config.failure_ratio)
             rows.append({**{f"param.{k}": v for k, v in params.items()}, **res})
             print(f"trial {i + 1}/{len(trials)} {params}: objective {res['objective']:.3f}", flush=True)
     else:
@@ -280,7 +279,7 @@ def _sweep_ray(config: SweepConfig, base: TrainConfig, out: Path, val_seeds: lis
 
     def trainable(params: dict[str, Any]) -> dict[str, Any]:
         ctx = tune.get_context()
-        name = f"{ctx.get_trial_name()}_{_trial_name(0, params)[9:]}"
+        name = f"{ctx.get_trial_name()}_{_slug(params)}"
         return run_trial(base, params, trials_dir / name, val_seeds, failure_ratio)
 
     tuner = tune.Tuner(

@@ -361,10 +361,11 @@ def _parts(dirs: list[Path]) -> str:
 
 def _merged_rows(dirs: list[Path]) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
-    seen: set[tuple[str, str, int]] = set()
+    seen: set[tuple[str, str, int, str]] = set()
     for d in dirs:
         for r in read_episodes(Path(d) / "episodes.csv"):
-            key = (r["controller"], r["observer"], int(r["seed"]))
+            # a pooled row keeps its training run: the seeds of one pooled label are different episodes
+            key = (r["controller"], r["observer"], int(r["seed"]), str(r.get("training_run") or ""))
             if key not in seen:  # the same episode in two directories (e.g. the oracle rows) counts once
                 seen.add(key)
                 rows.append(r)

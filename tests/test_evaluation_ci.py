@@ -67,3 +67,20 @@ def test_pool_errors_name_the_controller() -> None:
         pool_rows(rows, {"ppo": ["run_s0", "run_s9"]})
     with pytest.raises(ValueError, match="two pools"):
         pool_rows(rows, {"a": ["run_s0"], "b": ["run_s0"]})
+
+
+def test_a_pooled_table_merged_again_keeps_every_seed(tmp_path) -> None:
+    """Merging an earlier merge's episodes.csv (pooled rows share their label) keeps all the pooled seeds, and a
+    directory merged twice still counts each episode once."""
+    from agents.evaluation import _merged_rows
+    from agents.evaluation_table import pool_rows, write_csv
+
+    oracle = [r for r in _rows() if r["controller"] == "oracle"]
+    seeds = _policy_rows("run_s0", 1.05) + _policy_rows("run_s1", 1.15) + _policy_rows("run_s2", 1.10)
+    first = tmp_path / "first"
+    first.mkdir()
+    write_csv(first / "episodes.csv", pool_rows(oracle + seeds, {"ppo": ["run_s0", "run_s1", "run_s2"]}))
+    rows = _merged_rows([first, first])
+    assert len(rows) == 40 + 120
+    row = next(r for r in summarise(rows) if r["controller"] == "ppo")
+    assert row["training_runs"] == 3 and row["episodes"] == 120

@@ -255,8 +255,9 @@ class DFFRLSAEKF(Estimator):
         Any field of :class:`DFFRLSAEKFConfig` (overrides ``config``). Unknown names raise ``TypeError``.
 
     Gives mass, slope (under the whole train) and μ (``extras["mu"]``, ``extras["mu_std"]``) with 1-sigma
-    standard deviations, and ``extras["nis"]``: the normalised innovation squared of the sample's speed correction
-    (NaN where none), a consistency check that needs no truth (χ²(1) on average when the filter is right). ``dt_s`` NaN, zero or negative: the sample is ignored; above ``gap_s``: a data gap.
+    standard deviations, and ``extras["nis"]``: the normalised innovation squared of the last speed correction (held
+    between corrections, 1 before the first), a consistency check that needs no truth (χ²(1) on average when the
+    filter is right). ``dt_s`` NaN, zero or negative: the sample is ignored; above ``gap_s``: a data gap.
     """
 
     name: ClassVar[str] = "dffrls-aekf"

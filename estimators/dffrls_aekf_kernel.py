@@ -102,6 +102,7 @@ def reset(S, H, C):
     S[LAMBDA] = 1.0
     S[MB] = 0.5 * c0  # fused: beta = c alpha, alpha = 0.5 (weight of the slope under the sensors) a priori
     S[PB] = C[P0_B]
+    S[NIS] = 1.0  # its expected value until the first speed correction (an output is never NaN)
     H[:] = 0.0
 
 
@@ -133,7 +134,6 @@ def _restart_signals(S, H):
 @njit(cache=True)
 def step(S, H, C, torque, speed, accel, dt):
     """Process one sample. Returns nothing; the estimate is read from ``S`` (:func:`estimate`)."""
-    S[NIS] = math.nan
     if not (dt > 0.0):  # NaN, 0, negative: a repeated or out-of-order stamp; nothing to integrate
         return
     if dt > C[GAP_S]:  # a gap (inf, 1e300 included): restart, then treat the sample as the first after it
@@ -400,7 +400,7 @@ def step(S, H, C, torque, speed, accel, dt):
 @njit(cache=True)
 def estimate(S, C, out):
     """Write (mass, slope, mass_std, slope_std, mu, mu_std, alpha, nis) into ``out`` (alpha: fused only, else 0;
-    nis: NaN where the sample corrected no speed)."""
+    nis: that of the last speed correction, held between corrections)."""
     c = S[MC]
     # the regression counts every 5 ms sample as independent, but its low-passed signals are correlated over
     # ~CORR_N samples: the parameter variance is that much too small

@@ -137,6 +137,6 @@ PB = 65
 PCB = 66
 PDB = 67
 DIST0 = 68
-NIS = 69  # normalised innovation squared of this sample's accepted speed correction (NaN: none)
+NIS = 69  # normalised innovation squared of the last accepted speed correction (held; 1 before the first)
 N_S = 70
 N_HIST_MAX = 512

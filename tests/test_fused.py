@@ -25,7 +25,7 @@ def test_registered_with_its_extras() -> None:
     est = estimators.make("fused")
     assert "fused" in estimators.available() and est.config.fused
     e = est.update(3000.0, 0.5, 0.1, 0.005)
-    assert set(e.extras) == {"mu", "mu_std", "gravity_weight_sensor"}
+    assert set(e.extras) == {"mu", "mu_std", "gravity_weight_sensor", "nis"}
     assert 0.0 <= e.extras["gravity_weight_sensor"] <= 1.0
     with pytest.raises(ValueError, match="fused"):
         estimators.make("fused", offset_forgetting_ratio=0.0)

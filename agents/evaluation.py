@@ -30,8 +30,8 @@ import numpy as np
 
 from agents.evaluation_table import (DEFAULT_OBSERVERS, RULES, markdown_ci_table, markdown_table, pool_rows, read_episodes,
                                      summarise, write_csv)
+from agents.hyperparameters import ENV_ID
 
-ENV_ID = "UUOM-Track-v0"
 DEFAULT_SEED_BASE = 100_000
 """Held-out tracks: training uses seeds near 0 and its EvalCallback near 1 000 000."""
 

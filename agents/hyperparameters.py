@@ -12,6 +12,7 @@ from typing import Any
 from agents.algos import algo_class
 
 ENV_ID = "UUOM-Track-v0"
+"""The default env id (the class with its default configuration); ``uuom_gym.registration.ENV_IDS`` lists all."""
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 SHIELD_WRAPPER = "agents.shield.ShieldWrapper"
 RESIDUAL_WRAPPER = "agents.residual.ResidualWrapper"

@@ -30,10 +30,10 @@ from typing import Any
 
 from agents.algos import ALGOS, algo_class
 from agents.checkpoints import atomic_write, atomic_write_text, clean_partial, latest_checkpoint
-from agents.hyperparameters import TrainConfigError, evaluate_str, load_hyperparams, wrappers_from_env_wrapper
+from agents.hyperparameters import (ENV_ID, TrainConfigError, evaluate_str, load_hyperparams,
+                                    wrappers_from_env_wrapper)
 from uuom_gym.registration import env_kwargs_of
 
-ENV_ID = "UUOM-Track-v0"
 EVAL_SEED_OFFSET = 1_000_000
 """Evaluation tracks during training are drawn from seeds far from the training seeds (held out)."""
 _ZOO_ONLY_KEYS = ("frame_stack", "callback", "vec_env_wrapper")

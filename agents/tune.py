@@ -194,9 +194,21 @@ def score(rows: list[dict[str, Any]], oracle_s: dict[int, float], failure_ratio:
     }
 
 
+def oracle_trip_times(base: TrainConfig, val_seeds: list[int]) -> dict[int, float]:
+    """The oracle controller's trip time on each validation track it completes, in the base training's env (no
+    sweep key changes the env, so every trial is scored against the same reference)."""
+    from agents.evaluation import Task, run_episode
+    from agents.training import plan
+
+    kw = json.dumps(plan(base).env_kwargs, sort_keys=True)
+    refs = {s: run_episode(Task("oracle", "oracle", s, kw)) for s in val_seeds}
+    return {s: float(r["trip_time_s"]) for s, r in refs.items() if r["success"]}
+
+
 def run_trial(base: TrainConfig, params: dict[str, Any], run_dir: Path, val_seeds: list[int],
-              failure_ratio: float) -> dict[str, Any]:
-    """Train one trial into ``run_dir`` and score it on ``val_seeds`` (the same function on both back ends)."""
+              oracle_s: dict[int, float], failure_ratio: float) -> dict[str, Any]:
+    """Train one trial into ``run_dir`` and score it on ``val_seeds`` against the oracle's trip times ``oracle_s``
+    (the same function on both back ends)."""
     from agents.evaluation import Task, run_episode
     from agents.training import train
 
@@ -205,11 +217,6 @@ def run_trial(base: TrainConfig, params: dict[str, Any], run_dir: Path, val_seed
     train(config)
     # the run's whole configuration (the env id's with the sweep's on top), as uuom-train recorded it
     kw = json.dumps(json.loads((Path(run_dir) / "config.json").read_text())["env_kwargs"], sort_keys=True)
-    oracle_s = {}
-    for s in val_seeds:
-        ref = run_episode(Task("oracle", "oracle", s, kw))
-        if ref["success"]:
-            oracle_s[s] = float(ref["trip_time_s"])
     rows = [run_episode(Task(str(run_dir), config.observer, s, kw)) for s in val_seeds]
     return {**score(rows, oracle_s, failure_ratio), "wall_s": time.time() - t0, "run_dir": str(run_dir)}
 
@@ -240,21 +247,24 @@ def sweep(config: SweepConfig) -> list[dict[str, Any]]:
     base = dataclasses.replace(config.base, env_kwargs=dict(config.base.env_kwargs),
                                subproc=config.base.subproc and config.cpus_per_trial > 1, eval_freq=0,
                                conf_file=Path(conf).resolve() if conf is not None else None)
+    oracle_s = oracle_trip_times(dataclasses.replace(base, run_dir=out / "trials"), val_seeds)
     if config.backend == "local":
         trials = [p for p in grid(config.space) for _ in range(config.samples)]
         rows = []
         for i, params in enumerate(trials):
-            res = run_trial(base, params, out / "trials" / f"trial{i:03d}_{_slug(params)}", val_seeds, config.failure_ratio)
+            res = run_trial(base, params, out / "trials" / f"trial{i:03d}_{_slug(params)}", val_seeds, oracle_s,
+                            config.failure_ratio)
             rows.append({**{f"param.{k}": v for k, v in params.items()}, **res})
             print(f"trial {i + 1}/{len(trials)} {params}: objective {res['objective']:.3f}", flush=True)
     else:
-        rows = _sweep_ray(config, base, out, val_seeds)
+        rows = _sweep_ray(config, base, out, val_seeds, oracle_s)
     rows.sort(key=lambda r: (r["objective"], r["run_dir"]))
     _write(config, out, rows)
     return rows
 
 
-def _sweep_ray(config: SweepConfig, base: TrainConfig, out: Path, val_seeds: list[int]) -> list[dict[str, Any]]:
+def _sweep_ray(config: SweepConfig, base: TrainConfig, out: Path, val_seeds: list[int],
+               oracle_s: dict[int, float]) -> list[dict[str, Any]]:
     from agents.ray_support import RayUnavailableError, init_ray
 
     init_ray()
@@ -280,7 +290,7 @@ def _sweep_ray(config: SweepConfig, base: TrainConfig, out: Path, val_seeds: lis
     def trainable(params: dict[str, Any]) -> dict[str, Any]:
         ctx = tune.get_context()
         name = f"{ctx.get_trial_name()}_{_slug(params)}"
-        return run_trial(base, params, trials_dir / name, val_seeds, failure_ratio)
+        return run_trial(base, params, trials_dir / name, val_seeds, oracle_s, failure_ratio)
 
     tuner = tune.Tuner(
         tune.with_resources(trainable, {"cpu": config.cpus_per_trial}),
@@ -326,4 +336,4 @@ def _write(config: SweepConfig, out: Path, rows: list[dict[str, Any]]) -> None:
 
 
 __all__ = ["BACKENDS", "Range", "SEARCHES", "SweepConfig", "TuneConfigError", "VALIDATION_SEED_BASE", "check_sweep",
-           "grid", "parse_space", "run_trial", "score", "sweep", "trial_config"]
+           "grid", "oracle_trip_times", "parse_space", "run_trial", "score", "sweep", "trial_config"]

@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from agents.control_input import ControlInput
+from uuom_core.units import clamp
 from uuom_core.vehicle import G_MPS2
 
 
@@ -52,7 +51,7 @@ class GradeCrossCheck:
             return self.slope_rad
         if self._last_speed_mps is not None:
             dvdt = (x.speed_mps - self._last_speed_mps) / max(x.dt_s, 1e-3)
-            sample = math.asin(float(np.clip((f - dvdt) / G_MPS2, -1.0, 1.0)))
+            sample = math.asin(float(clamp((f - dvdt) / G_MPS2, -1.0, 1.0)))
             self._avg = sample if self._n == 0 else self._avg + self.smoothing * (sample - self._avg)
             self._n += 1
             if self._n >= self.min_samples:

@@ -19,6 +19,7 @@ import gymnasium as gym
 import numpy as np
 
 from agents.controllers import RuleBasedController, SpeedController
+from uuom_core.units import clamp
 
 
 class ResidualWrapper(gym.Wrapper):
@@ -56,9 +57,9 @@ class ResidualWrapper(gym.Wrapper):
     def step(self, action: Any):
         if self._obs is None:
             raise gym.error.ResetNeeded("ResidualWrapper: call reset() before step()")
-        a = float(np.clip(np.asarray(action, dtype=np.float64).reshape(-1)[0], -1.0, 1.0))
+        a = clamp(float(np.asarray(action, dtype=np.float64).reshape(-1)[0]), -1.0, 1.0)
         base = float(self.base.act(self._obs, self._info)[0])
-        cmd = float(np.clip(base + self.scale * a, -1.0, 1.0))
+        cmd = float(clamp(base + self.scale * a, -1.0, 1.0))
         obs, reward, term, trunc, info = self.env.step(np.array([cmd], dtype=np.float32))
         info = dict(info)
         info["base_command"] = base

@@ -25,7 +25,9 @@ import numpy as np
 from agents.control_input import ControlInput, control_input_from_obs
 from agents.controllers.base import force_to_command
 from agents.grade_check import GradeCrossCheck
+from agents.sliding_window import WindowMax
 from uuom_core.limits import brake_deceleration_mps2, speed_limit_mps
+from uuom_core.units import clamp
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 
@@ -110,7 +112,8 @@ class SafetyShield:
         self._dist_n = 0.0
         self._last: tuple[float, float] | None = None
         self._t_s = 0.0
-        self._history: list[tuple[float, float, float]] = []
+        self._mass_max = WindowMax(self.params.memory_s)
+        self._slope_min = WindowMax(self.params.memory_s, sign=-1.0)
         self._grade_check = GradeCrossCheck()
 
     def pessimistic(self, x: ControlInput, remember: bool = False) -> tuple[float, float]:
@@ -130,12 +133,11 @@ class SafetyShield:
             slope = min(slope, mf - p.cross_check_margin_rad)
         if remember:
             self._t_s += x.dt_s
-            self._history.append((self._t_s, mass, slope))
-            while self._history and self._history[0][0] < self._t_s - p.memory_s:
-                self._history.pop(0)
-        if self._history:
-            mass = max(mass, max(h[1] for h in self._history))
-            slope = min(slope, min(h[2] for h in self._history))
+            self._mass_max.push(self._t_s, mass)
+            self._slope_min.push(self._t_s, slope)
+        if self._mass_max.value is not None:
+            mass = max(mass, self._mass_max.value)
+            slope = min(slope, self._slope_min.value)
         if self._t_s < p.warmup_s:
             mass = max(mass, v.rated_mass_kg)
         return mass, slope
@@ -161,7 +163,7 @@ class SafetyShield:
 
     def filter(self, command: float, x: ControlInput) -> float:
         """Return the safe command closest to ``command`` (a float in [-1, 1])."""
-        cmd = float(np.clip(command, -1.0, 1.0)) if math.isfinite(command) else -1.0
+        cmd = float(clamp(command, -1.0, 1.0)) if math.isfinite(command) else -1.0
         p, v = self.params, self.vehicle
         mass, _ = self.pessimistic(x, remember=True)
         m_hat = min(max(x.est_mass_kg, v.empty_mass_kg), v.max_mass_kg)
@@ -177,7 +179,7 @@ class SafetyShield:
             a_meas = (x.speed_mps - self._last[1]) / max(x.dt_s, 1e-3)
             a_pred = (self._applied_force_n(self._last[0], self._last[1]) - resist_hat - self._dist_n) / inertia
             self._dist_n += 0.1 * inertia * (a_pred - a_meas)
-            self._dist_n = float(np.clip(self._dist_n, -0.5 * v.service_brake_n, 0.5 * v.service_brake_n))
+            self._dist_n = float(clamp(self._dist_n, -0.5 * v.service_brake_n, 0.5 * v.service_brake_n))
         resist = resist_hat + self._dist_n
         v_cap = self.speed_cap(x)
         # Upper bound: reach v_cap no faster than the sway-safe acceleration, and not beyond it within a step.
@@ -205,7 +207,7 @@ class SafetyShield:
             new = max(new, min(hold, cmd_max if cmd_max > 0 else hold))
         if abs(new - cmd) > 1e-6:
             self.interventions += 1
-        new = float(np.clip(new, -1.0, 1.0))
+        new = float(clamp(new, -1.0, 1.0))
         self._last = (new, x.speed_mps)
         return new
 

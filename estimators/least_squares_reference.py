@@ -5,16 +5,57 @@ running resistance and biases, unknown) by ordinary least squares over all sampl
 prior, no forgetting, no gates. The model is exact for a point mass without sway, so on such a world this is about
 the most a linear regression can extract from the first seconds of a run (``scripts/mass_information_bound.py``).
 It is wrong where the brake force is not measured or gravity acts along a long train (the pymunk plant).
+
+With ``offset_prior`` the fit is Bayesian: the offset is written ``c = M k`` (``k = μ g − b``, per unit mass) and
+``k`` gets a Gaussian prior, which is what an estimator can know beforehand about the running resistance and the
+sensor biases. Given the *true* mass for the prior's width and the residual noise of the exact model, it is an
+optimistic reference: what the first seconds of data plus correct prior knowledge allow.
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 
 from uuom_core.trace import Trace
-from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, VehicleParams
 
-__all__ = ["expanding_ls_mass", "ls_mass_errors"]
+__all__ = ["OffsetPrior", "expanding_ls_mass", "ls_mass_errors", "scenario_offset_prior"]
+
+
+@dataclass(frozen=True)
+class OffsetPrior:
+    """Gaussian prior on the offset per unit mass ``k = μ g cos θ − b_accel − b_force / M`` (m/s²).
+
+    Attributes
+    ----------
+    mean_mps2, std_mps2 : float
+        Its mean and standard deviation.
+    mass_kg : float
+        The mass that turns the per-unit-mass std into a force std (``c = M k``); the truth, for a reference.
+    residual_std_n : float or None
+        Standard deviation of the 1 s-averaged force residual (None: from the whole run's fit).
+    """
+
+    mean_mps2: float
+    std_mps2: float
+    mass_kg: float
+    residual_std_n: float | None = None
+
+
+def scenario_offset_prior(mass_kg: float, mu_range: tuple[float, float] = (0.015, 0.03),
+                          accel_bias_std_mps2: float = 0.012, torque_bias_std_nm: float = 30.0,
+                          vehicle: VehicleParams = DEFAULT_VEHICLE) -> OffsetPrior:
+    """The prior an estimator may hold on the point-mass world: μ uniform on ``mu_range`` (the random runs' draw),
+    the sensor-bias spreads of :class:`uuom_gym.sim.point_mass.PointMassSensors` (not imported: estimators do not
+    depend on the simulator)."""
+    lo, hi = mu_range
+    mu_mean, mu_std = 0.5 * (lo + hi), (hi - lo) / math.sqrt(12.0)
+    force_bias_std = torque_bias_std_nm / vehicle.drive_wheel_radius_m / mass_kg
+    std = math.sqrt((G_MPS2 * mu_std) ** 2 + accel_bias_std_mps2 ** 2 + force_bias_std ** 2)
+    return OffsetPrior(G_MPS2 * mu_mean, std, mass_kg)
 
 
 def _box(x: np.ndarray, n: int) -> np.ndarray:
@@ -25,9 +66,12 @@ def _box(x: np.ndarray, n: int) -> np.ndarray:
 
 
 def expanding_ls_mass(trace: Trace, vehicle: VehicleParams = DEFAULT_VEHICLE, window_s: float = 1.0,
-                      min_speed_mps: float = 0.05, every: int = 20) -> np.ndarray:
+                      min_speed_mps: float = 0.05, every: int = 20,
+                      offset_prior: OffsetPrior | None = None) -> np.ndarray:
     """Mass (kg) from the least-squares fit of ``T/r - m_rot a = M f + c`` over all samples so far (NaN before
-    the fit is determined); evaluated every ``every`` samples, NaN in between."""
+    the fit is determined); evaluated every ``every`` samples, NaN in between. With ``offset_prior``: the
+    Bayesian fit of ``y = M (f + k0) + c'`` with ``c' ~ N(0, (M σ_k)²)`` over one 1 s-averaged sample per window
+    (the averaged samples of one window are not independent evidence)."""
     v = vehicle
     t = trace["t_s"]
     cols = [np.asarray(trace[k], dtype=float) for k in ("torque_nm", "speed_mps", "accel_mps2")]
@@ -42,10 +86,24 @@ def expanding_ls_mass(trace: Trace, vehicle: VehicleParams = DEFAULT_VEHICLE, wi
     dvdt[n:] = (speed[n:] - speed[:-n]) * fs / n  # over the same window as the box filter
     y = force - v.rotating_mass_kg * dvdt
     use = np.isfinite(y) & np.isfinite(f) & (speed_f > min_speed_mps)
-    X = np.where(use[:, None], np.stack([f, np.ones_like(f)], 1), 0.0)
-    yu = np.where(use, y, 0.0)
-    A = np.cumsum(X[:, :, None] * X[:, None, :], 0)
-    b = np.cumsum(X * yu[:, None], 0)
+    if offset_prior is None:
+        X = np.where(use[:, None], np.stack([f, np.ones_like(f)], 1), 0.0)
+        yu = np.where(use, y, 0.0)
+        A = np.cumsum(X[:, :, None] * X[:, None, :], 0)
+        b = np.cumsum(X * yu[:, None], 0)
+    else:
+        use &= (np.arange(len(t)) % n) == 0
+        fk = f + offset_prior.mean_mps2
+        X = np.where(use[:, None], np.stack([fk, np.ones_like(f)], 1), 0.0)
+        yu = np.where(use, y, 0.0)
+        sigma = offset_prior.residual_std_n
+        if sigma is None:  # the exact model's residual over the whole run
+            k = np.flatnonzero(use)
+            coef, *_ = np.linalg.lstsq(X[k], yu[k], rcond=None)
+            sigma = float(np.std(yu[k] - X[k] @ coef))
+        A = np.cumsum(X[:, :, None] * X[:, None, :], 0) / sigma ** 2
+        b = np.cumsum(X * yu[:, None], 0) / sigma ** 2
+        A[:, 1, 1] += 1.0 / (offset_prior.mass_kg * offset_prior.std_mps2) ** 2
     out = np.full(len(t), np.nan)
     for i in range(0, len(t), every):
         det = A[i, 0, 0] * A[i, 1, 1] - A[i, 0, 1] ** 2
@@ -54,9 +112,10 @@ def expanding_ls_mass(trace: Trace, vehicle: VehicleParams = DEFAULT_VEHICLE, wi
     return out
 
 
-def ls_mass_errors(trace: Trace, settle_s: float = 10.0) -> tuple[float, float]:
+def ls_mass_errors(trace: Trace, settle_s: float = 10.0,
+                   offset_prior: OffsetPrior | None = None) -> tuple[float, float]:
     """(max |error| % after ``settle_s``, |error| % at the last evaluated sample)."""
-    m = expanding_ls_mass(trace)
+    m = expanding_ls_mass(trace, offset_prior=offset_prior)
     t, truth = trace["t_s"], trace["mass_kg"]
     k = (t >= t[0] + settle_s) & np.isfinite(m)
     if not k.any():

@@ -8,6 +8,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from agents.control_input import ControlInput, control_input_from_info, control_input_from_obs
+from uuom_core.units import clamp
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 
@@ -22,7 +23,7 @@ def force_to_command(vehicle: VehicleParams, force_n: float, speed_mps: float = 
         cmd = force_n / available
     else:
         cmd = force_n / vehicle.service_brake_n
-    return float(np.clip(cmd, -1.0, 1.0))
+    return float(clamp(cmd, -1.0, 1.0))
 
 
 def _creep_mps(dist_m: float) -> float:

@@ -5,12 +5,13 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
-import numpy as np
 
 from agents.control_input import ControlInput
 from agents.controllers.base import SpeedController, _creep_mps, _station_hold, force_to_command
 from agents.grade_check import GradeCrossCheck
+from agents.sliding_window import WindowMax
 from uuom_core.limits import brake_deceleration_mps2, speed_limit_mps
+from uuom_core.units import clamp
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 
@@ -102,8 +103,8 @@ class RuleBasedController(SpeedController):
         """Mass and slope the controller plans with (heavier and more downhill than estimated)."""
         v = self.vehicle
         mass = self._pessimistic_mass_now(x)
-        if self._mass_history:
-            mass = max(mass, max(m for _, m in self._mass_history))
+        if self._mass_max.value is not None:
+            mass = max(mass, self._mass_max.value)
         if self._t_s < self.warmup_s:
             mass = max(mass, v.rated_mass_kg)
         slope = x.est_slope_rad - self.k_sigma * x.est_slope_std_rad - self.slope_margin_rad
@@ -127,7 +128,7 @@ class RuleBasedController(SpeedController):
         self._integral = 0.0
         self._grade_check.reset()
         self._t_s = 0.0
-        self._mass_history: list[tuple[float, float]] = []
+        self._mass_max = WindowMax(self.memory_s)
 
     def _pessimistic_mass_now(self, x: ControlInput) -> float:
         v = self.vehicle
@@ -138,9 +139,7 @@ class RuleBasedController(SpeedController):
         """Advance the clock and keep the pessimistic mass of the last ``memory_s`` seconds."""
         self._t_s += x.dt_s
         self._grade_check.update(x)
-        self._mass_history.append((self._t_s, self._pessimistic_mass_now(x)))
-        while self._mass_history and self._mass_history[0][0] < self._t_s - self.memory_s:
-            self._mass_history.pop(0)
+        self._mass_max.push(self._t_s, self._pessimistic_mass_now(x))
 
     def speed_cap(self, x: ControlInput) -> float:
         """Pessimistic speed limit with the margins, and the braking curve to the stop."""
@@ -173,7 +172,7 @@ class RuleBasedController(SpeedController):
         err = v_ref - x.speed_mps
         # Integral action: the train is 18 m long and only the slope under the drive section is estimated, so on
         # grade transitions the grade feed-forward is off; the anti-windup clamp keeps the stop gentle.
-        self._integral = float(np.clip(self._integral + err * self.dt_s, -0.3, 0.3))
+        self._integral = float(clamp(self._integral + err * self.dt_s, -0.3, 0.3))
         force = m_hat * G_MPS2 * (math.sin(th) + v.running_resistance * math.cos(th)) + inertia * (
             self.gain_per_s * err + self.integral_gain_per_s2 * self._integral
         )

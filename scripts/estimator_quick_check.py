@@ -1,0 +1,94 @@
+#!/usr/bin/env python
+"""Quick generalisation check of estimator settings: the tuning runs, the first random runs of both worlds and the
+fixed point-mass scenarios, for several estimator configurations side by side.
+
+The full protocol (``scripts/estimator_protocol.py``: 200 + 200 random runs, the paper's scenarios, faults,
+consistency) takes long; this is the check to run before it, when a change of an estimator is being decided. Each
+configuration is ``[label, estimator, {option: value}]``; the options are the estimator's keyword options (for
+example the true swing of the point-mass scenarios, ``{"chain_length_m": 2.5, "sway_damping_ratio": 0.08}``).
+
+Usage::
+
+    python scripts/estimator_quick_check.py --runs 30
+    python scripts/estimator_quick_check.py --runs 30 --configs \\
+        '[["fused", "fused", {}], ["fused, true swing", "fused", {"chain_length_m": 2.5, "sway_damping_ratio": 0.08}]]'
+
+Prints one line per scenario and configuration (max |mass error| % after 10 s, slope RMSE ° against the
+train-averaged slope), then per group (``tuning`` = plant runs 1000-1015, ``plant``, ``point``, ``pm-sc`` = the
+scenarios) the median / p90 / p95 / max of the mass error and the median / p95 of the slope RMSE.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import json
+import multiprocessing
+import sys
+from typing import Any
+
+import numpy as np
+
+from estimators.metrics import error_after_settling
+from estimators.registry import get_class
+from uuom_gym.sim.protocol_runs import RunSpec, make_run, protocol_runs
+
+DEFAULT_CONFIGS = [["dffrls-aekf", "dffrls-aekf", {}], ["fused", "fused", {}]]
+TUNING_RUNS = range(1000, 1016)
+
+
+def _specs(n: int) -> list[tuple[str, RunSpec]]:
+    out = [("tuning", RunSpec("plant", f"plant-{i}", i, i, "plant")) for i in TUNING_RUNS]
+    out += [("plant", RunSpec("plant", f"plant-{i:03d}", i, i, "plant")) for i in range(n)]
+    out += [("point", RunSpec("point", f"point-{i:03d}", i, i, "point")) for i in range(n)]
+    out += [(f"pm-sc:{s.scenario}", s) for s in protocol_runs(0, 0, paper_seeds=1, fault_seeds=0) if s.world == "point"]
+    return out
+
+
+def _score(job: tuple[str, RunSpec, list[list[Any]]]) -> list[tuple[str, str, float, float]]:
+    group, spec, configs = job
+    tr = make_run(spec)
+    t = tr["t_s"]
+    slope = tr.get("effective_slope_deg")
+    slope = tr["slope_deg"] if slope is None else slope
+    rows = []
+    for label, name, options in configs:
+        s = get_class(name)(**options).run(tr)
+        mass = error_after_settling(t, s.mass_kg, tr["mass_kg"], 10.0, relative=True).max_abs
+        rows.append((group, label, mass, error_after_settling(t, s.slope_deg, slope, 10.0).rmse))
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=30, help="random runs per world (0..runs-1)")
+    ap.add_argument("--configs", type=json.loads, default=DEFAULT_CONFIGS,
+                    help='JSON list of [label, estimator, {options}] (default: dffrls-aekf and fused)')
+    ap.add_argument("--workers", type=int, default=2)
+    args = ap.parse_args(argv)
+    configs = args.configs
+    if not isinstance(configs, list) or not all(isinstance(c, list) and len(c) == 3 for c in configs):
+        ap.error("--configs must be a JSON list of [label, estimator, {options}]")
+    for _, name, options in configs:
+        get_class(name)(**options)  # an unknown estimator or option fails here, named, before any run
+    jobs = [(g, s, configs) for g, s in _specs(args.runs)]
+    with multiprocessing.Pool(max(1, args.workers)) as pool:
+        rows = [r for rs in pool.map(_score, jobs, chunksize=1) for r in rs]
+    by_group: dict[tuple[str, str], list[tuple[float, float]]] = collections.defaultdict(list)
+    for group, label, mass, slope in rows:
+        if group.startswith("pm-sc:"):
+            print(f"{group[6:]:24s} {label:28s} mass {mass:6.2f} %  slope {slope:5.2f} deg")
+            group = "pm-sc"
+        by_group[(group, label)].append((mass, slope))
+    print()
+    for (group, label), v in sorted(by_group.items()):
+        a = np.array(v)
+        m = a[:, 0]
+        print(f"{group:7s} {label:28s} n={len(a):3d}  mass % median {np.median(m):6.2f} p90 "
+              f"{np.percentile(m, 90):6.2f} p95 {np.percentile(m, 95):6.2f} max {m.max():6.1f} | slope deg median "
+              f"{np.median(a[:, 1]):.2f} p95 {np.percentile(a[:, 1], 95):.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

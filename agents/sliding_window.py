@@ -22,9 +22,6 @@ class WindowMax:
         self.sign = sign
         self._q: deque[tuple[float, float]] = deque()
 
-    def clear(self) -> None:
-        self._q.clear()
-
     def push(self, t_s: float, x: float) -> None:
         """Add ``x`` at time ``t_s`` (non-decreasing) and forget what is older than ``t_s - span_s``."""
         q, y = self._q, self.sign * x

@@ -86,23 +86,21 @@ def expanding_ls_mass(trace: Trace, vehicle: VehicleParams = DEFAULT_VEHICLE, wi
     dvdt[n:] = (speed[n:] - speed[:-n]) * fs / n  # over the same window as the box filter
     y = force - v.rotating_mass_kg * dvdt
     use = np.isfinite(y) & np.isfinite(f) & (speed_f > min_speed_mps)
-    if offset_prior is None:
-        X = np.where(use[:, None], np.stack([f, np.ones_like(f)], 1), 0.0)
-        yu = np.where(use, y, 0.0)
-        A = np.cumsum(X[:, :, None] * X[:, None, :], 0)
-        b = np.cumsum(X * yu[:, None], 0)
-    else:
+    if offset_prior is not None:
         use &= (np.arange(len(t)) % n) == 0
-        fk = f + offset_prior.mean_mps2
-        X = np.where(use[:, None], np.stack([fk, np.ones_like(f)], 1), 0.0)
-        yu = np.where(use, y, 0.0)
+    k0 = 0.0 if offset_prior is None else offset_prior.mean_mps2  # y = M (f + k0) + c'
+    X = np.where(use[:, None], np.stack([f + k0, np.ones_like(f)], 1), 0.0)
+    yu = np.where(use, y, 0.0)
+    A = np.cumsum(X[:, :, None] * X[:, None, :], 0)
+    b = np.cumsum(X * yu[:, None], 0)
+    if offset_prior is not None:
         sigma = offset_prior.residual_std_n
         if sigma is None:  # the exact model's residual over the whole run
-            k = np.flatnonzero(use)
-            coef, *_ = np.linalg.lstsq(X[k], yu[k], rcond=None)
-            sigma = float(np.std(yu[k] - X[k] @ coef))
-        A = np.cumsum(X[:, :, None] * X[:, None, :], 0) / sigma ** 2
-        b = np.cumsum(X * yu[:, None], 0) / sigma ** 2
+            rows = np.flatnonzero(use)
+            coef, *_ = np.linalg.lstsq(X[rows], yu[rows], rcond=None)
+            sigma = float(np.std(yu[rows] - X[rows] @ coef))
+        A /= sigma ** 2
+        b /= sigma ** 2
         A[:, 1, 1] += 1.0 / (offset_prior.mass_kg * offset_prior.std_mps2) ** 2
     out = np.full(len(t), np.nan)
     for i in range(0, len(t), every):

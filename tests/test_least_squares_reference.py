@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from estimators.least_squares_reference import expanding_ls_mass, ls_mass_errors
+from estimators.least_squares_reference import expanding_ls_mass, ls_mass_errors, scenario_offset_prior
 from uuom_gym.sim.point_mass import point_mass_scenario, simulate_point_mass
 
 
@@ -27,8 +27,6 @@ def test_nan_until_determined_and_finite_after():
 
 
 def test_offset_prior_fit_is_finite_and_converges():
-    from estimators.least_squares_reference import scenario_offset_prior
-
     tr = simulate_point_mass(point_mass_scenario("pm-section2"), seed=0)
     mass = float(tr["mass_kg"][0])
     m = expanding_ls_mass(tr, offset_prior=scenario_offset_prior(mass))
@@ -39,8 +37,6 @@ def test_offset_prior_fit_is_finite_and_converges():
 
 
 def test_offset_prior_matches_the_draws_it_describes():
-    from estimators.least_squares_reference import scenario_offset_prior
-
     p = scenario_offset_prior(20_000.0)
     assert math.isclose(p.mean_mps2, 9.81 * 0.0225)
     assert 0.04 < p.std_mps2 < 0.06  # mu's uniform spread dominates the bias spreads

@@ -33,13 +33,11 @@ def test_window_extreme_equals_a_scan_of_the_window(steps, span_s, sign):
         assert w.value == _scan(history, span_s, sign)
 
 
-def test_window_is_empty_until_the_first_push_and_after_clear():
+def test_window_is_empty_until_the_first_push():
     w = WindowMax(1.0)
     assert w.value is None
     w.push(0.0, 3.0)
     assert w.value == 3.0
-    w.clear()
-    assert w.value is None
 
 
 def test_a_value_leaves_the_window_after_span():

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
-
 from agents.control_input import ControlInput
 from agents.controllers.base import SpeedController, _creep_mps, _station_hold, force_to_command
 from agents.grade_check import GradeCrossCheck

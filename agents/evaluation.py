@@ -4,7 +4,9 @@ This table answers "how much does the estimator decide control safety?". Control
 ``oracle`` (minimum-time controller with perfect knowledge; observer-independent, run once and the reference
 for trip time), ``rule-based``, ``full-throttle``, a run directory of :func:`agents.training.train` (model +
 VecNormalize stats; a run trained with the shield and/or the residual is evaluated the same way), and
-``<any>+shield`` to put the safety shield in front of any controller.
+``<any>+shield`` to put the safety shield in front of any controller. A reference controller takes keyword
+options after ``@``: ``rule-based@speed_margin=0.04,k_sigma=1`` (its constructor's names, numbers or
+``true``/``false``; the whole spec is the row's label), e.g. to trace its trip-time/cost trade-off.
 
 For every controller x observer, on episodes with seeds ``seed_base .. seed_base + episodes - 1`` (the same
 tracks, loads and conditions for every row): success rate, overspeed trips, violations per km by rule, cost
@@ -57,6 +59,32 @@ def split_shield(spec: str) -> tuple[str, bool]:
     if spec.endswith("+shield"):
         return spec[: -len("+shield")], True
     return spec, False
+
+
+def split_options(base: str) -> tuple[str, dict[str, float | bool]]:
+    """``("rule-based", {"speed_margin": 0.04})`` for ``"rule-based@speed_margin=0.04"``.
+
+    Raises
+    ------
+    EvalConfigError
+        An option that is not ``name=value`` or whose value is neither a number nor ``true``/``false``.
+    """
+    if "@" not in base:
+        return base, {}
+    name, _, text = base.partition("@")
+    opts: dict[str, float | bool] = {}
+    for item in filter(None, text.split(",")):
+        key, sep, value = item.partition("=")
+        if not sep or not key.isidentifier():
+            raise EvalConfigError(f"controller {base!r}: option {item!r} is not name=value")
+        if value.lower() in ("true", "false"):
+            opts[key] = value.lower() == "true"
+            continue
+        try:
+            opts[key] = float(value)
+        except ValueError:
+            raise EvalConfigError(f"controller {base!r}: option {key}={value!r} is not a number or true/false") from None
+    return name, opts
 
 
 def controller_label(spec: str) -> str:
@@ -114,8 +142,9 @@ def make_controller(spec: str, vehicle: Any) -> Any:
     from agents.controllers import CONTROLLERS
 
     base, _ = split_shield(spec)
-    if base in CONTROLLERS:
-        return CONTROLLERS[base](vehicle)
+    name, opts = split_options(base)
+    if name in CONTROLLERS:
+        return CONTROLLERS[name](vehicle, **opts)
     if base not in _MODEL_CACHE:
         _MODEL_CACHE[base] = ModelPolicy(Path(base))
     return _MODEL_CACHE[base]
@@ -323,6 +352,7 @@ def check_config(config: EvalConfig) -> None:
 
     import uuom_gym  # noqa: F401 - registers the env
     from agents.controllers import CONTROLLERS
+    from uuom_core.vehicle import VehicleParams
 
     if config.episodes < 1:
         raise EvalConfigError(f"episodes must be >= 1, got {config.episodes}")
@@ -332,7 +362,13 @@ def check_config(config: EvalConfig) -> None:
         raise EvalConfigError("no controllers given")
     for spec in config.controllers:
         base, _ = split_shield(spec)
-        if base not in CONTROLLERS and not (Path(base) / "model.zip").is_file():
+        name, opts = split_options(base)
+        if name in CONTROLLERS:
+            try:
+                CONTROLLERS[name](VehicleParams(), **opts)
+            except TypeError as exc:
+                raise EvalConfigError(f"controller {spec!r}: {exc}") from None
+        elif opts or not (Path(base) / "model.zip").is_file():
             raise EvalConfigError(
                 f"controller {spec!r} is neither one of {', '.join(CONTROLLERS)} nor a run directory with a model.zip"
             )
@@ -388,6 +424,7 @@ __all__ = [
     "read_episodes",
     "run_episode",
     "run_tasks",
+    "split_options",
     "split_shield",
     "summarise",
     "write_csv",

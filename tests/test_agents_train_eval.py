@@ -189,6 +189,17 @@ def test_evaluate_table_on_two_tiny_runs_is_deterministic(tmp_path):
     assert float(rule_oracle["success_rate"]) == 1.0 and int(rule_oracle["overspeed_trips"]) == 0
 
 
+def test_controller_options_reach_the_constructor():
+    from agents.evaluation import make_controller, split_options
+    from uuom_core.vehicle import VehicleParams
+
+    assert split_options("rule-based") == ("rule-based", {})
+    assert split_options("rule-based@speed_margin=0.02,feedforward_cross_check=false") == (
+        "rule-based", {"speed_margin": 0.02, "feedforward_cross_check": False})
+    ctrl = make_controller("rule-based@speed_margin=0.02,k_sigma=1+shield", VehicleParams())
+    assert ctrl.speed_margin == 0.02 and ctrl.k_sigma == 1.0 and ctrl.brake_fraction == 0.4
+
+
 @pytest.mark.parametrize(
     "config, fragment",
     [
@@ -196,6 +207,9 @@ def test_evaluate_table_on_two_tiny_runs_is_deterministic(tmp_path):
         (dict(observers=["kalman"]), "kalman"),
         (dict(episodes=0), "episodes must be >= 1"),
         (dict(merge=[Path("/nonexistent")]), "no episodes.csv"),
+        (dict(controllers=["rule-based@speed_margn=0.1"]), "speed_margn"),
+        (dict(controllers=["rule-based@speed_margin"]), "not name=value"),
+        (dict(controllers=["rule-based@speed_margin=big"]), "not a number"),
     ],
 )
 def test_bad_evaluation_input_is_named_before_any_episode(tmp_path, config, fragment):

@@ -99,7 +99,7 @@ def plot(family: dict[str, dict[str, Any]], learned: dict[str, dict[str, Any]], 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    fig, ax = plt.subplots(figsize=(11.0, 5.0))
 
     def xy(p: dict[str, Any]) -> tuple[float, float, list[list[float]], list[list[float]]]:
         x = max(p["cost_rate"], floor)
@@ -108,7 +108,7 @@ def plot(family: dict[str, dict[str, Any]], learned: dict[str, dict[str, Any]], 
 
     env = _envelope(family)
     ax.plot([max(c, floor) for c, _ in env], [t for _, t in env], "-", color="0.6", zorder=1,
-            label="rule-based settings (R0 = default), envelope of those without trips")
+            label="rule-based settings (R0 = default;\nids in front.md), envelope of\nthose without trips")
     short = short_names(family)
     for name, p in family.items():
         x, y, xe, ye = xy(p)
@@ -119,14 +119,18 @@ def plot(family: dict[str, dict[str, Any]], learned: dict[str, dict[str, Any]], 
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for k, (name, p) in enumerate(learned.items()):
         x, y, xe, ye = xy(p)
-        ax.errorbar(x, y, xerr=xe, yerr=ye, fmt="o", color=colours[k % len(colours)], ms=7, capsize=3, zorder=3,
-                    label=f"{name} ({p['runs']} seed{'s' if p['runs'] > 1 else ''})")
+        fixed = "full-throttle" in name  # a fixed action, not a policy: drawn as a diamond
+        colour = colours[k % len(colours)]
+        ax.errorbar(x, y, xerr=xe, yerr=ye, fmt="D" if fixed else "o", color=colour, ms=6 if fixed else 7, capsize=3,
+                    zorder=3, mfc=colour if p["trips"] == 0 else "white",
+                    label=name + (f" ({p['runs']} seeds)" if p["runs"] > 1 else "")
+                    + (f", {p['trips']} trips" if p["trips"] else ""))
     ax.set_xscale("log")
     ax.set_xlabel("cost rate (mean safety cost per policy step, log)")
     ax.set_ylabel("trip time / oracle (IQM, 95 % CI)")
     ax.set_title("Faster at equal safety? Learned controllers vs the rule-based trade-off", fontsize=10)
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=130)
@@ -138,13 +142,24 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("dirs", nargs="+", type=Path, help="uuom-evaluate output folders (their episodes.csv)")
     ap.add_argument("--pool", action="append", default=[], metavar="LABEL=CTRL,CTRL,...",
                     help="show these controllers (training seeds) as one point")
+    ap.add_argument("--prefix", action="append", default=[], metavar="DIR=TEXT",
+                    help="put TEXT before the controller labels of that folder (e.g. one fixed action in several env set-ups)")
     ap.add_argument("--out", type=Path, required=True, help="folder for front.md and front.png")
     args = ap.parse_args(argv)
+    prefixes: dict[Path, str] = {}
+    for spec in args.prefix:
+        folder, sep, text = spec.partition("=")
+        if not sep or Path(folder) not in args.dirs:
+            raise SystemExit(f"--prefix {spec!r}: expected DIR=TEXT with DIR one of the folders given")
+        prefixes[Path(folder)] = text
     rows: list[dict[str, Any]] = []
     for d in args.dirs:
         if not (d / "episodes.csv").is_file():
             raise SystemExit(f"{d}: no episodes.csv (run uuom-evaluate --out {d} first)")
-        rows += read_episodes(d / "episodes.csv")
+        for r in read_episodes(d / "episodes.csv"):
+            if d in prefixes:
+                r["controller"] = prefixes[d] + str(r["controller"])
+            rows.append(r)
     pools: dict[str, list[str]] = {}
     for spec in args.pool:
         label, sep, members = spec.partition("=")
@@ -179,8 +194,16 @@ def main(argv: list[str] | None = None) -> int:
         lines.append(f"| {short.get(name, '')} | {name} | {p['runs']} | {p['episodes']} | {p['success']:.0%} | {p['trips']} | "
                      f"{p['cost_rate']:.2e} ({lo:.1e}–{hi:.1e}) | {p['time_iqm']:.3f} ({tlo:.3f}–{thi:.3f}) | "
                      f"{p['time_mean']:.3f} |")
-    lines += ["", "Each learned controller against the fastest rule-based setting (0 trips) with no higher cost rate:", ""]
+    lines += ["", "Where the episodes come from (each folder's `uuom-evaluate` command, from its summary.md):", ""]
+    for d in args.dirs:
+        summary = d / "summary.md"
+        cmd = next((ln for ln in summary.read_text().splitlines() if ln.startswith("Command:")), None) if summary.is_file() else None
+        lines.append(f"- `{d}`" + (f" ({prefixes[d].strip()})" if d in prefixes else "") + f": {cmd or 'no summary.md'}")
+    lines += ["", "Each other controller (learned, or a fixed action) against the fastest rule-based setting (0 trips) with no higher cost rate:", ""]
     for name, p in learned.items():
+        if p["trips"]:
+            lines.append(f"- {name}: {p['trips']} overspeed trips in {p['episodes']} episodes: not a candidate at equal safety.")
+            continue
         best = fastest_no_costlier(p, family)
         if best is None:
             lines.append(f"- {name}: no rule-based setting here is as safe (cost rate {p['cost_rate']:.2e}).")

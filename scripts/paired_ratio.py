@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Paired comparison of trip times on the same held-out tracks: controller(s) against a reference controller.
 
-Reads the ``episodes.csv`` of a ``uuom-evaluate`` run or merge, takes for every track (episode seed) the ratio of
+Reads the ``episodes.csv`` of a ``uuom-evaluate`` run or merge (or several, e.g. the reference's and the policies'), takes for every track (episode seed) the ratio of
 trip times ``controller / reference`` (both arrived), one row per controller (several controllers = training seeds
 of one policy), and prints on how many tracks the seeds' mean ratio is below 1, the mean and median ratio with a
 95 % bootstrap interval over seeds and tracks (:func:`agents.statistics.bootstrap_ci`), and the mean ratio on heavy
@@ -40,12 +40,12 @@ def _trip_times(rows: list[dict], name: str) -> dict[int, tuple[float, float]]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("episodes", type=Path, help="episodes.csv of an evaluation or merge")
+    ap.add_argument("episodes", type=Path, nargs="+", help="episodes.csv of an evaluation or merge (several: concatenated)")
     ap.add_argument("--reference", default="rule-based")
     ap.add_argument("--controllers", nargs="+", required=True, help="one controller, or its training seeds")
     ap.add_argument("--heavy-kg", type=float, default=28_000.0, help="mass above which a train counts as heavy")
     args = ap.parse_args(argv)
-    rows = read_episodes(args.episodes)
+    rows = [r for path in args.episodes for r in read_episodes(path)]
     ref = _trip_times(rows, args.reference)
     runs = [_trip_times(rows, c) for c in args.controllers]
     tracks = sorted(set(ref).intersection(*runs))

@@ -49,6 +49,18 @@ def test_a_learned_point_safer_than_every_setting_is_said_so(folder: Path, tmp_p
     assert "careful: no rule-based setting here is as safe" in (tmp_path / "o" / "front.md").read_text()
 
 
+def test_prefix_keeps_same_named_controllers_of_two_folders_apart(folder: Path, tmp_path: Path):
+    other = tmp_path / "other"
+    other.mkdir()
+    write_csv(other / "episodes.csv", _episodes("fast_s0", 1.3, 0.0))
+    out = tmp_path / "o"
+    assert front.main([str(folder), str(other), "--prefix", f"{other}=slow ", "--out", str(out)]) == 0
+    md = (out / "front.md").read_text()
+    assert "| slow fast_s0 | 1 | 20 |" in md and "| fast_s0 | 1 | 20 |" in md
+    with pytest.raises(SystemExit, match="--prefix"):
+        front.main([str(folder), "--prefix", "elsewhere=x", "--out", str(out)])
+
+
 def test_missing_oracle_or_folder_is_named(folder: Path, tmp_path: Path):
     with pytest.raises(SystemExit, match="no episodes.csv"):
         front.main([str(tmp_path / "nowhere"), "--out", str(tmp_path / "o")])

@@ -65,6 +65,9 @@ def train_parser() -> argparse.ArgumentParser:
     ap.add_argument("--residual", type=float, default=None, metavar="SCALE",
                     help="residual on the rule-based controller with this authority, 0: the policy alone "
                     "(default: the YAML's env_wrapper)")
+    ap.add_argument("--margin-schedule", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                    help="the action sets the rule-based controller's speed margin in [LO, HI] "
+                    "(agents.margin_schedule; needs --residual 0)")
     ap.add_argument("--log-dir", type=Path, default=Path("runs"))
     ap.add_argument("--run-dir", type=Path, default=None, help="explicit run directory (overrides --log-dir naming)")
     ap.add_argument("--conf-file", type=Path, default=None, help="rl-zoo style YAML (default agents/hyperparams/<algo>.yml)")
@@ -90,6 +93,7 @@ def train_config(args: argparse.Namespace) -> Any:
     return TrainConfig(
         algo=args.algo, observer=args.observer, timesteps=args.timesteps, seed=args.seed, n_envs=args.n_envs,
         shield=args.shield, residual=args.residual, log_dir=args.log_dir, run_dir=args.run_dir,
+        margin_schedule=tuple(args.margin_schedule) if args.margin_schedule is not None else None,
         conf_file=args.conf_file, hyperparams=list(args.hyperparams), env_kwargs=args.env_kwargs, env_id=args.env,
         eval_freq=args.eval_freq, eval_episodes=args.eval_episodes, checkpoint_freq=args.checkpoint_freq,
         subproc=not args.no_subproc, progress=not args.no_progress, fresh=args.fresh, resume=args.resume,

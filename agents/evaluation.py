@@ -115,6 +115,8 @@ class ModelPolicy:
         cfg = json.loads((run_dir / "config.json").read_text()) if (run_dir / "config.json").exists() else {}
         self.shield = bool(cfg.get("shield", False))
         self.residual = float(cfg.get("residual", 0.0))
+        span = cfg.get("margin_schedule")
+        self.margin_schedule = tuple(float(x) for x in span) if span is not None else None
         algo = cfg.get("algo", "ppo")
         path = run_dir / "model.zip"
         vn_path = run_dir / "vecnormalize.pkl"
@@ -169,6 +171,10 @@ def run_episode(task: Task) -> dict[str, Any]:
         from agents.residual import ResidualWrapper
 
         env = ResidualWrapper(env, scale=ctrl.residual)
+    if getattr(ctrl, "margin_schedule", None) is not None:
+        from agents.margin_schedule import MarginScheduleWrapper
+
+        env = MarginScheduleWrapper(env, span=ctrl.margin_schedule)
     obs, info = env.reset(seed=task.seed)
     if hasattr(ctrl, "reset"):
         ctrl.reset(env, info)

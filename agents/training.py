@@ -65,6 +65,7 @@ class TrainConfig:
     n_envs: int | None = None
     shield: bool | None = None
     residual: float | None = None
+    margin_schedule: tuple[float, float] | None = None
     log_dir: Path = Path("runs")
     run_dir: Path | None = None
     conf_file: Path | None = None
@@ -82,8 +83,10 @@ class TrainConfig:
 
 
 # --- environments --------------------------------------------------------------------------------------------
-def make_env_fn(observer: str, seed: int, shield: bool, env_kwargs: dict[str, Any], residual: float = 0.0):
-    """A picklable env factory for SubprocVecEnv: env -> shield -> residual -> Monitor (normalisation outside)."""
+def make_env_fn(observer: str, seed: int, shield: bool, env_kwargs: dict[str, Any], residual: float = 0.0,
+                margin_schedule: tuple[float, float] | None = None):
+    """A picklable env factory for SubprocVecEnv: env -> shield -> residual or margin schedule -> Monitor
+    (normalisation outside)."""
 
     def _init():
         import multiprocessing
@@ -105,6 +108,10 @@ def make_env_fn(observer: str, seed: int, shield: bool, env_kwargs: dict[str, An
             from agents.residual import ResidualWrapper
 
             env = ResidualWrapper(env, scale=residual)
+        if margin_schedule is not None:
+            from agents.margin_schedule import MarginScheduleWrapper
+
+            env = MarginScheduleWrapper(env, span=margin_schedule)
         env = Monitor(env, info_keywords=("is_success",))
         env.reset(seed=seed)
         return env
@@ -114,20 +121,21 @@ def make_env_fn(observer: str, seed: int, shield: bool, env_kwargs: dict[str, An
 
 def make_vec_env(
     observer: str, seed: int, n_envs: int, shield: bool, env_kwargs: dict[str, Any], subproc: bool,
-    residual: float = 0.0,
+    residual: float = 0.0, margin_schedule: tuple[float, float] | None = None,
 ):
     """``n_envs`` envs with seeds ``seed, seed + 1, ...`` (SubprocVecEnv if ``subproc`` and ``n_envs > 1``)."""
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-    fns = [make_env_fn(observer, seed + i, shield, env_kwargs, residual) for i in range(n_envs)]
+    fns = [make_env_fn(observer, seed + i, shield, env_kwargs, residual, margin_schedule) for i in range(n_envs)]
     if subproc and n_envs > 1:
         return SubprocVecEnv(fns, start_method="fork" if sys.platform.startswith("linux") else "spawn")
     return DummyVecEnv(fns)
 
 
-def run_dir_name(algo: str, observer: str, seed: int, shield: bool, residual: float = 0.0) -> str:
-    """``<algo>_<observer>[_res][_shield]_s<seed>``."""
-    return f"{algo}_{observer}{'_res' if residual > 0 else ''}{'_shield' if shield else ''}_s{seed}"
+def run_dir_name(algo: str, observer: str, seed: int, shield: bool, residual: float = 0.0, margin: bool = False) -> str:
+    """``<algo>_<observer>[_res][_margin][_shield]_s<seed>``."""
+    return (f"{algo}_{observer}{'_res' if residual > 0 else ''}{'_margin' if margin else ''}"
+            f"{'_shield' if shield else ''}_s{seed}")
 
 
 # --- validation ----------------------------------------------------------------------------------------------
@@ -144,6 +152,7 @@ class _Plan:
     hp: dict[str, Any]
     run_dir: Path
     env_kwargs: dict[str, Any]  # the env id's registered configuration with the config's on top
+    margin_schedule: tuple[float, float] | None = None
 
 
 def plan(config: TrainConfig) -> _Plan:
@@ -168,6 +177,14 @@ def plan(config: TrainConfig) -> _Plan:
         raise TrainConfigError(f"eval_episodes must be >= 1, got {c.eval_episodes!r}")
     if c.residual is not None and not (c.residual == 0.0 or 0.0 < c.residual <= 2.0):
         raise TrainConfigError(f"residual must be 0 (off) or in (0, 2], got {c.residual!r}")
+    margin_schedule = None
+    if c.margin_schedule is not None:
+        from agents.margin_schedule import check_span
+
+        try:
+            margin_schedule = check_span(c.margin_schedule)
+        except ValueError as exc:
+            raise TrainConfigError(str(exc)) from None
     if c.fresh and c.resume:
         raise TrainConfigError("fresh and resume exclude each other")
     if not isinstance(c.env_kwargs, dict):
@@ -185,6 +202,9 @@ def plan(config: TrainConfig) -> _Plan:
     yaml_shield, yaml_residual = wrappers_from_env_wrapper(hp.pop("env_wrapper", None))
     shield = yaml_shield if c.shield is None else bool(c.shield)
     residual = yaml_residual if c.residual is None else float(c.residual)
+    if margin_schedule is not None and residual > 0:
+        raise TrainConfigError("a margin schedule and a residual both set the command from the rule-based controller: "
+                               "pass --residual 0 with --margin-schedule")
     normalize = evaluate_str(hp.pop("normalize", False), "normalize")
     if not isinstance(normalize, (bool, dict)):
         raise TrainConfigError(f"hyperparameter normalize must be a bool or a dict, got {normalize!r}")
@@ -194,10 +214,10 @@ def plan(config: TrainConfig) -> _Plan:
         hp["policy_kwargs"] = evaluate_str(hp["policy_kwargs"], "policy_kwargs")
     for key in _ZOO_ONLY_KEYS:
         hp.pop(key, None)
-    _check_env(c.observer, env_kwargs, shield, residual)
+    _check_env(c.observer, env_kwargs, shield, residual, margin_schedule)
     run_dir = Path(c.run_dir) if c.run_dir is not None else Path(c.log_dir) / run_dir_name(
-        c.algo, c.observer, c.seed, shield, residual)
-    return _Plan(total, n_envs, shield, residual, policy, norm_kwargs, hp, run_dir, env_kwargs)
+        c.algo, c.observer, c.seed, shield, residual, margin_schedule is not None)
+    return _Plan(total, n_envs, shield, residual, policy, norm_kwargs, hp, run_dir, env_kwargs, margin_schedule)
 
 
 def _whole(v: Any, name: str) -> int:
@@ -208,10 +228,11 @@ def _whole(v: Any, name: str) -> int:
     return v
 
 
-def _check_env(observer: str, env_kwargs: dict[str, Any], shield: bool, residual: float) -> None:
+def _check_env(observer: str, env_kwargs: dict[str, Any], shield: bool, residual: float,
+               margin_schedule: tuple[float, float] | None = None) -> None:
     """Build the env once in this process: a bad observer or env option fails here, not in every worker."""
     try:
-        env = make_env_fn(observer, 0, shield, env_kwargs, residual)()
+        env = make_env_fn(observer, 0, shield, env_kwargs, residual, margin_schedule)()
     except (ValueError, TypeError, KeyError) as exc:
         raise TrainConfigError(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
     env.close()
@@ -245,6 +266,7 @@ def train(config: TrainConfig) -> Path:
     record = {
         "algo": config.algo, "observer": config.observer, "seed": config.seed, "n_envs": p.n_envs,
         "timesteps": p.total, "shield": p.shield, "residual": p.residual, "env_kwargs": p.env_kwargs,
+        **({"margin_schedule": list(p.margin_schedule)} if p.margin_schedule is not None else {}),
         "hyperparams": {k: repr(v) for k, v in p.hp.items()}, "normalize": p.normalize,
     }
     if resume is not None:
@@ -275,7 +297,8 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any) -
     torch.set_num_threads(1)  # the env processes need the cores; small MLPs gain nothing from threads
     run_dir, ckpt_dir = p.run_dir, p.run_dir / "checkpoints"
     cls = algo_class(config.algo)
-    venv = make_vec_env(config.observer, config.seed, p.n_envs, p.shield, p.env_kwargs, config.subproc, p.residual)
+    venv = make_vec_env(config.observer, config.seed, p.n_envs, p.shield, p.env_kwargs, config.subproc, p.residual,
+                        p.margin_schedule)
     eval_venv = None
     try:
         if resume is not None:
@@ -301,7 +324,7 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any) -
         eval_cb = None
         if config.eval_freq > 0:
             eval_venv = make_vec_env(config.observer, config.seed + EVAL_SEED_OFFSET, 1, p.shield, p.env_kwargs,
-                                     False, p.residual)
+                                     False, p.residual, p.margin_schedule)
             if p.normalize is not None:
                 kw = {k: v for k, v in p.normalize.items() if k not in ("norm_reward", "training")}
                 eval_venv = VecNormalize(eval_venv, training=False, norm_reward=False, **kw)

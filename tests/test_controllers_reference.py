@@ -187,3 +187,24 @@ def test_rule_based_no_longer_trips_on_the_measured_runaway_episode():
     summary, _ = _drive(env, RuleBasedController(env.unwrapped.vehicle), 100000)
     assert not summary.overspeed_trip
     assert summary.success
+
+
+def test_light_load_margin_raises_the_cap_only_below_its_mass():
+    """``light_speed_margin``: a smaller margin while the planning mass is light; off by default (docs/rl.md §14)."""
+    from agents.controllers import RuleBasedController
+    from agents.control_input import ControlInput
+    from uuom_core.vehicle import VehicleParams
+
+    v = VehicleParams()
+
+    def cap(ctrl: RuleBasedController, mass_kg: float) -> float:
+        ctrl.reset()
+        x = ControlInput(0.0, 0.5, 500.0, mass_kg, 100.0, 0.0, math.radians(0.05), 0.1)
+        for _ in range(100):  # past the rated-load warm-up
+            ctrl._remember(x)
+        return ctrl.speed_cap(x)
+
+    default, light = RuleBasedController(v), RuleBasedController(v, light_speed_margin=0.02)
+    assert light.light_speed_margin == 0.02 and default.light_speed_margin is None
+    assert cap(light, 20_000.0) > cap(default, 20_000.0) * 1.04
+    assert cap(light, 33_000.0) == cap(default, 33_000.0)

@@ -24,6 +24,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.base_controller_wrapper import OnBaseController
 from agents.controllers import RuleBasedController
 from uuom_core.units import clamp
 
@@ -54,7 +55,7 @@ def check_span(span: Any) -> tuple[float, float]:
     return lo, hi
 
 
-class MarginScheduleWrapper(gym.Wrapper):
+class MarginScheduleWrapper(OnBaseController):
     """The agent's action sets the rule-based controller's speed margin; the controller gives the command.
 
     Parameters
@@ -70,33 +71,17 @@ class MarginScheduleWrapper(gym.Wrapper):
 
     def __init__(self, env: gym.Env, span: tuple[float, float] = (0.0, 0.12),
                  base: RuleBasedController | None = None) -> None:
-        super().__init__(env)
         self.span = check_span(span)
-        self.base = base or RuleBasedController(env.unwrapped.vehicle)
-        self._obs: Any = None
-        self._info: dict[str, Any] = {}
+        super().__init__(env, base or RuleBasedController(env.unwrapped.vehicle))
 
-    def reset(self, **kwargs: Any):
-        obs, info = self.env.reset(**kwargs)
-        self.base.reset(self.env, info)
-        self._obs, self._info = obs, info
-        return obs, info
-
-    def step(self, action: Any):
-        if self._obs is None:
-            raise gym.error.ResetNeeded("MarginScheduleWrapper: call reset() before step()")
+    def command(self, action: Any) -> tuple[np.ndarray, dict[str, Any]]:
         a = np.asarray(action, dtype=np.float64).reshape(-1)
         if a.size != 1 or not np.isfinite(a[0]):
             raise ValueError(f"MarginScheduleWrapper: action must be one finite number, got {action!r}")
         m = margin_of_action(float(a[0]), self.span)
         self.base.speed_margin = m
         self.base.speed_margin_mps = m * ABS_PER_REL_MARGIN_MPS
-        cmd = self.base.act(self._obs, self._info)
-        obs, reward, term, trunc, info = self.env.step(cmd)
-        info = dict(info)
-        info["speed_margin"] = m
-        self._obs, self._info = obs, info
-        return obs, reward, term, trunc, info
+        return self.base.act(self._obs, self._info), {"speed_margin": m}
 
 
 __all__ = ["ABS_PER_REL_MARGIN_MPS", "MarginScheduleWrapper", "check_span", "margin_of_action"]

@@ -18,11 +18,12 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.controllers import RuleBasedController, SpeedController
+from agents.base_controller_wrapper import OnBaseController
+from agents.controllers import SpeedController
 from uuom_core.units import clamp
 
 
-class ResidualWrapper(gym.Wrapper):
+class ResidualWrapper(OnBaseController):
     """Adds a reference controller's command to the (scaled) agent action.
 
     Parameters
@@ -40,32 +41,16 @@ class ResidualWrapper(gym.Wrapper):
     """
 
     def __init__(self, env: gym.Env, base: SpeedController | None = None, scale: float = 0.5) -> None:
-        super().__init__(env)
         if not (0.0 < scale <= 2.0):
             raise ValueError(f"ResidualWrapper scale must lie in (0, 2], got {scale!r}")
-        self.base = base or RuleBasedController(env.unwrapped.vehicle)
+        super().__init__(env, base)
         self.scale = float(scale)
-        self._obs: Any = None
-        self._info: dict[str, Any] = {}
 
-    def reset(self, **kwargs: Any):
-        obs, info = self.env.reset(**kwargs)
-        self.base.reset(self.env, info)
-        self._obs, self._info = obs, info
-        return obs, info
-
-    def step(self, action: Any):
-        if self._obs is None:
-            raise gym.error.ResetNeeded("ResidualWrapper: call reset() before step()")
+    def command(self, action: Any) -> tuple[np.ndarray, dict[str, Any]]:
         a = clamp(float(np.asarray(action, dtype=np.float64).reshape(-1)[0]), -1.0, 1.0)
         base = float(self.base.act(self._obs, self._info)[0])
         cmd = float(clamp(base + self.scale * a, -1.0, 1.0))
-        obs, reward, term, trunc, info = self.env.step(np.array([cmd], dtype=np.float32))
-        info = dict(info)
-        info["base_command"] = base
-        info["residual_command"] = self.scale * a
-        self._obs, self._info = obs, info
-        return obs, reward, term, trunc, info
+        return np.array([cmd], dtype=np.float32), {"base_command": base, "residual_command": self.scale * a}
 
 
 __all__ = ["ResidualWrapper"]

@@ -158,23 +158,14 @@ def run_episode(task: Task) -> dict[str, Any]:
 
     import uuom_gym  # noqa: F401 - registers the env
     from agents.metrics import EpisodeAccumulator
-    from agents.shield import ShieldWrapper
+    from agents.training import wrap_env
 
     env_kwargs = json.loads(task.env_kwargs_json)
     env = gym.make(ENV_ID, observer=task.observer, **env_kwargs)
     vehicle = env.unwrapped.vehicle
     ctrl = make_controller(task.controller, vehicle)
     shield = split_shield(task.controller)[1] or bool(getattr(ctrl, "shield", False))
-    if shield:
-        env = ShieldWrapper(env)
-    if getattr(ctrl, "residual", 0.0) > 0:
-        from agents.residual import ResidualWrapper
-
-        env = ResidualWrapper(env, scale=ctrl.residual)
-    if getattr(ctrl, "margin_schedule", None) is not None:
-        from agents.margin_schedule import MarginScheduleWrapper
-
-        env = MarginScheduleWrapper(env, span=ctrl.margin_schedule)
+    env = wrap_env(env, shield, getattr(ctrl, "residual", 0.0), getattr(ctrl, "margin_schedule", None))
     obs, info = env.reset(seed=task.seed)
     if hasattr(ctrl, "reset"):
         ctrl.reset(env, info)

@@ -72,7 +72,7 @@ class MarginScheduleWrapper(OnBaseController):
     def __init__(self, env: gym.Env, span: tuple[float, float] = (0.0, 0.12),
                  base: RuleBasedController | None = None) -> None:
         self.span = check_span(span)
-        super().__init__(env, base or RuleBasedController(env.unwrapped.vehicle))
+        super().__init__(env, base)
 
     def command(self, action: Any) -> tuple[np.ndarray, dict[str, Any]]:
         a = np.asarray(action, dtype=np.float64).reshape(-1)

@@ -83,6 +83,27 @@ class TrainConfig:
 
 
 # --- environments --------------------------------------------------------------------------------------------
+def wrap_env(env: Any, shield: bool, residual: float = 0.0, margin_schedule: tuple[float, float] | None = None) -> Any:
+    """The set-up a policy acts in, around a bare env: shield, then the residual or the margin schedule outside it.
+
+    One place for training (:func:`make_env_fn`) and evaluation (:func:`agents.evaluation.run_episode`), so a policy
+    is always evaluated behind the wrappers it was trained behind.
+    """
+    if shield:
+        from agents.shield import ShieldWrapper
+
+        env = ShieldWrapper(env)
+    if residual > 0:
+        from agents.residual import ResidualWrapper
+
+        env = ResidualWrapper(env, scale=residual)
+    if margin_schedule is not None:
+        from agents.margin_schedule import MarginScheduleWrapper
+
+        env = MarginScheduleWrapper(env, span=margin_schedule)
+    return env
+
+
 def make_env_fn(observer: str, seed: int, shield: bool, env_kwargs: dict[str, Any], residual: float = 0.0,
                 margin_schedule: tuple[float, float] | None = None):
     """A picklable env factory for SubprocVecEnv: env -> shield -> residual or margin schedule -> Monitor
@@ -99,19 +120,7 @@ def make_env_fn(observer: str, seed: int, shield: bool, env_kwargs: dict[str, An
         if multiprocessing.current_process().name != "MainProcess":
             # Ctrl-C is the parent's to handle (it saves a checkpoint); workers must not die with a traceback.
             signal.signal(signal.SIGINT, signal.SIG_IGN)
-        env = gym.make(ENV_ID, observer=observer, **env_kwargs)
-        if shield:
-            from agents.shield import ShieldWrapper
-
-            env = ShieldWrapper(env)
-        if residual > 0:
-            from agents.residual import ResidualWrapper
-
-            env = ResidualWrapper(env, scale=residual)
-        if margin_schedule is not None:
-            from agents.margin_schedule import MarginScheduleWrapper
-
-            env = MarginScheduleWrapper(env, span=margin_schedule)
+        env = wrap_env(gym.make(ENV_ID, observer=observer, **env_kwargs), shield, residual, margin_schedule)
         env = Monitor(env, info_keywords=("is_success",))
         env.reset(seed=seed)
         return env

@@ -1,7 +1,9 @@
 """``dffrls-aekf``: the project's two-layer estimator in the paper's structure (DFFRLS mass -> adaptive EKF slope),
 the environment's default observer. The paper's equations as printed are ``dffrls-aekf-paper``
 (:mod:`estimators.dffrls_aekf_paper`); every deviation below is an option, and its measured effect is in the
-ablation table of ``docs/estimators.md``.
+ablation table of ``docs/estimators.md``. This module is one filter with a fixed slope geometry; the registered
+``dffrls-aekf`` is a bank of two of them (a point mass and the 12 m window) weighted by their force-balance
+evidence (:mod:`estimators.geometry_bank`); ``train_length_m=X`` there gives this filter alone.
 
 **Slope layer: adaptive EKF on** ``x = [v, θ_s]`` (θ_s: the slope under the sensors), corrected by the encoder
 speed, with the Sage-Husa estimate of the speed-noise variance R̂ (fading factor 0.966 as the paper). Its process
@@ -90,7 +92,10 @@ class DFFRLSAEKFConfig:
     adapt_r : bool
         (A) Sage-Husa adaptation of the speed-noise variance (the paper adapts Q, R and the means).
     max_slope_spread_rad : float
-        (A) No mass update while the slope under the sensors and ``train_length_m`` behind differ by more.
+        (A) No mass update while the slope under the sensors and ``spread_length_m`` behind differ by more.
+    spread_length_m : float or None
+        How far behind the sensors the spread gate looks (None: ``train_length_m``). The geometry bank gives all
+        its members the longest window, so they stop updating at the same grade changes.
     cutoff_hz : float
         (A) Low-pass corner of the regression signals (both sides).
     """
@@ -98,6 +103,7 @@ class DFFRLSAEKFConfig:
     use_accel: bool = True
     estimate_mu: bool = True
     train_length_m: float | None = 12.0
+    spread_length_m: float | None = None
     chain_length_m: float = 2.0
     mass_forgetting_ratio: float = 0.005
     gates: bool = True
@@ -172,8 +178,14 @@ class DFFRLSAEKFConfig:
         if not (0.0 <= length < math.inf):
             raise ValueError(f"dffrls-aekf: train_length_m must be a finite number >= 0, got {self.train_length_m!r}")
         n_hist = int(round(length / self.history_step_m))
-        if n_hist > kern.N_HIST_MAX:
-            raise ValueError(f"dffrls-aekf: train_length_m / history_step_m must be <= {kern.N_HIST_MAX}")
+        spread = length if self.spread_length_m is None else float(self.spread_length_m)
+        if not (length <= spread < math.inf):
+            raise ValueError(f"dffrls-aekf: spread_length_m must be finite and >= train_length_m ({length:g}), "
+                             f"got {self.spread_length_m!r}")
+        n_buf = int(round(spread / self.history_step_m))
+        if n_buf > kern.N_HIST_MAX:
+            raise ValueError(f"dffrls-aekf: train_length_m and spread_length_m / history_step_m must be <= "
+                             f"{kern.N_HIST_MAX}")
         C = np.zeros(kern.N_C)
         r = v.drive_wheel_radius_m
         max_torque = v.max_traction_n * r
@@ -225,6 +237,7 @@ class DFFRLSAEKFConfig:
         C[kern.USE_ACCEL] = float(bool(self.use_accel))
         C[kern.HIST_DS] = self.history_step_m
         C[kern.N_HIST] = float(n_hist)
+        C[kern.N_BUF] = float(n_buf)
         C[kern.R_M] = self.residual_std_mps2**2
         C[kern.DELTA] = self.delta
         C[kern.SIGMA] = self.sigma
@@ -274,7 +287,7 @@ class DFFRLSAEKF(Estimator):
         self.C = self.config.settings(self.vehicle)
         self.S = np.zeros(kern.N_S)
         self.H = np.zeros(kern.N_HIST_MAX)
-        self._out = np.zeros(8)
+        self._out = np.zeros(9)
         self.reset()
 
     def reset(self) -> None:
@@ -309,21 +322,25 @@ class DFFRLSAEKF(Estimator):
 
         ``reset`` and ``t_prev_s`` as in :meth:`Estimator.run` (block-by-block runs of a long log).
         """
-        if reset:
-            self.reset()
-        t = np.ascontiguousarray(trace["t_s"], dtype=np.float64)
-        n = len(t)
-        dts = first_step_dts(t, t_prev_s)
-        # Column-major, so each output column is a contiguous view: no copies (10^6 samples: 56 MB, not 112 MB).
-        out = np.empty((8, n)).T
-        col = [np.ascontiguousarray(trace[k], dtype=np.float64) for k in ("torque_nm", "speed_mps", "accel_mps2")]
-        kern.run(self.S, self.H, self.C, col[0], col[1], col[2], dts, out)
-        del col, dts
-        rows = out.T
+        t, rows = self.run_rows(trace, reset, t_prev_s=t_prev_s)
         extras = {"mu": rows[4], "mu_std": rows[5], "nis": rows[7]}
         if self.config.fused:
             extras["gravity_weight_sensor"] = rows[6]
         return EstimateSeries(t if t is not trace["t_s"] else t.copy(), rows[0], rows[1], rows[2], rows[3], extras)
+
+    def run_rows(self, trace: Trace, reset: bool = True, *, t_prev_s: float | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """The compiled loop of :meth:`run`: the trace's times and the kernel's output rows, shape (9, n): mass,
+        slope, their standard deviations, μ, its standard deviation, α, NIS, and the geometry score."""
+        if reset:
+            self.reset()
+        t = np.ascontiguousarray(trace["t_s"], dtype=np.float64)
+        dts = first_step_dts(t, t_prev_s)
+        # Column-major, so each output column is a contiguous view: no copies (10^6 samples: 72 MB, not 144 MB).
+        out = np.empty((9, len(t))).T
+        col = [np.ascontiguousarray(trace[k], dtype=np.float64) for k in ("torque_nm", "speed_mps", "accel_mps2")]
+        kern.run(self.S, self.H, self.C, col[0], col[1], col[2], dts, out)
+        return t, out.T
 
     # views for tests and diagnostics ---------------------------------------------------------------------------
     @property

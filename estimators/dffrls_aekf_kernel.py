@@ -32,12 +32,12 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     SWAY_H, MIN_SPEED, MIN_FORCE, SETTLE_S, T_MAX, T_RATE, T_BAND, V_MAX, V_RATE, V_BAND, F_MAX, F_RATE, F_BAND,
     RELOCK, GATES, R0, R_MIN, R_MAX, FADING, ADAPT_R, ACC_VAR, MODEL_ACC_VAR, GRADE_VAR_M, P0_TH, GATE2, MAX_SLOPE,
     USE_ACCEL, HIST_DS, N_HIST, R_M, DELTA, SIGMA, MASS_FORGET, P0_C, P0_CD, P0_D, EST_MU, MAX_SPREAD, READY_VAR,
-    Q_C, C0, MIN_ACC, OFF_FORGET, FUSED, P0_B, BIAS_VAR, CORR_N, N_C, V, TH, P11, P12, P22, R, K, BK, F_IN, F_OK,
+    Q_C, C0, MIN_ACC, OFF_FORGET, FUSED, P0_B, BIAS_VAR, CORR_N, N_BUF, N_C, V, TH, P11, P12, P22, R, K, BK, F_IN, F_OK,
     REJ,
     FORCE_IN, GT_LAST, GT_REJ, GV_LAST, GV_REJ, GF_LAST, GF_REJ, LF1, LF2, LF_OK, LV1, LV2, LV_OK, LQ1, LQ2, LQ_OK,
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
-    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, N_S, N_HIST_MAX,
+    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, N_S, N_HIST_MAX,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
@@ -223,7 +223,8 @@ def step(S, H, C, torque, speed, accel, dt):
     # ---------------- slope under the whole train: history of theta along the distance travelled ---------------
     th = S[TH]
     n_hist = int(C[N_HIST])
-    if n_hist > 0:
+    n_buf = int(C[N_BUF])
+    if n_buf > 0:
         v = S[V]
         if v == v and v > 0.0:
             S[DIST] += v * dt
@@ -231,7 +232,7 @@ def step(S, H, C, torque, speed, accel, dt):
             # not moved yet: the track behind is unknown, take the slope the train stands on, until the slope
             # layer has settled and the train has moved one history step (a start-up transient of theta must not
             # be frozen into the history for a whole train length)
-            for j in range(n_hist):
+            for j in range(n_buf):
                 H[j] = th
             S[HSUM] = n_hist * th
             S[HEAD] = 0.0
@@ -240,11 +241,12 @@ def step(S, H, C, torque, speed, accel, dt):
                 S[MOVED] = 1.0
                 S[DIST0] = S[DIST]
         n_push = 0
-        while S[DIST] >= S[NEXT_S] and n_push < n_hist:  # bounded: a huge step refills the buffer at most once
+        while S[DIST] >= S[NEXT_S] and n_push < n_buf:  # bounded: a huge step refills the buffer at most once
             hd = int(S[HEAD])
-            S[HSUM] += th - H[hd]
+            if n_hist > 0:  # the entry n_hist pushes back leaves the window
+                S[HSUM] += th - H[(hd - n_hist) % n_buf]
             H[hd] = th
-            S[HEAD] = float((hd + 1) % n_hist)
+            S[HEAD] = float((hd + 1) % n_buf)
             S[NEXT_S] += C[HIST_DS]
             n_push += 1
         if S[DIST] >= S[NEXT_S]:
@@ -252,11 +254,11 @@ def step(S, H, C, torque, speed, accel, dt):
         if n_push > 0 and S[HEAD] == 0.0:  # re-sum once per buffer turn: no drift of the running sum
             acc_sum = 0.0
             for j in range(n_hist):
-                acc_sum += H[j]
+                acc_sum += H[n_buf - 1 - j]
             S[HSUM] = acc_sum
         oldest = H[int(S[HEAD])]
         S[SPREAD] = abs(th - oldest)
-        S[TH_WIN] = (th + S[HSUM]) / (n_hist + 1)
+        S[TH_WIN] = (th + S[HSUM]) / (n_hist + 1) if n_hist > 0 else th
     else:
         S[TH_WIN] = th
         S[SPREAD] = 0.0
@@ -320,11 +322,24 @@ def step(S, H, C, torque, speed, accel, dt):
         S[T_MISSING] += dt
         if S[T_MISSING] > 0.1:
             S[T_VALID] = 0.0
-    valid = (raw_ok and S[LF_OK] != 0.0 and S[T_VALID] > C[SETTLE_S] and vf > C[MIN_SPEED] and F > C[MIN_FORCE]
-             and S[P22] < C[READY_VAR] and (S[SPREAD] < C[MAX_SPREAD] or C[FUSED] != 0.0))
-    if not valid:
+    usable = (raw_ok and S[LF_OK] != 0.0 and S[T_VALID] > C[SETTLE_S] and vf > C[MIN_SPEED] and F > C[MIN_FORCE]
+              and S[P22] < C[READY_VAR])
+    if not usable:
         return
     y = (F - C[M_ROT] * acc_f - C[M_RIGID] * (acc_f - a_load_f)) / C[M_REF]
+    if C[FUSED] == 0.0 and S[MOVED] != 0.0 and S[DIST] - S[DIST0] > C[N_BUF] * C[HIST_DS]:
+        # evidence for this estimator's slope geometry (estimators.geometry_bank): the Gaussian negative
+        # log-likelihood of the force balance predicted before the update, counted once per ~CORR_N correlated
+        # samples and capped per sample, so a fault cannot decide; also across the grade changes the mass update
+        # skips, since they are what tells a point mass from a long train; only once the history holds slopes
+        # measured on the way (before, a window member's history is the start-up guess, not a geometry)
+        hs = a_load_f + g * sin_lp
+        hc = g * cos_lp if C[OFF_FORGET] == 0.0 else g
+        e_s = y - hs * S[MC] - hc * S[MD]
+        s_s = max(S[RES_VAR], C[R_M])
+        S[SCORE] += 0.5 * (min(e_s * e_s / s_s, 25.0) + math.log(s_s)) / C[CORR_N]
+    if C[FUSED] == 0.0 and not S[SPREAD] < C[MAX_SPREAD]:
+        return
     if C[FUSED] != 0.0:
         # the blend is learned only once the window holds slopes measured on the way (not the start-up guess)
         learn_b = S[MOVED] != 0.0 and S[DIST] - S[DIST0] > C[N_HIST] * C[HIST_DS]
@@ -399,8 +414,8 @@ def step(S, H, C, torque, speed, accel, dt):
 
 @njit(cache=True)
 def estimate(S, C, out):
-    """Write (mass, slope, mass_std, slope_std, mu, mu_std, alpha, nis) into ``out`` (alpha: fused only, else 0;
-    nis: that of the last speed correction, held between corrections)."""
+    """Write (mass, slope, mass_std, slope_std, mu, mu_std, alpha, nis, score) into ``out`` (alpha: fused only,
+    else 0; nis: that of the last speed correction, held between corrections; score: the geometry evidence)."""
     c = S[MC]
     # the regression counts every 5 ms sample as independent, but its low-passed signals are correlated over
     # ~CORR_N samples: the parameter variance is that much too small
@@ -420,6 +435,7 @@ def estimate(S, C, out):
     out[5] = math.sqrt(max(var_mu * infl, 0.0))
     out[6] = min(max(S[MB] / c, 0.0), 1.0) if C[FUSED] != 0.0 else 0.0
     out[7] = S[NIS]
+    out[8] = S[SCORE]
 
 
 @njit(cache=True)
@@ -431,10 +447,10 @@ def steps(S, H, C, torque, speed, accel, dt):
 
 @njit(cache=True)
 def run(S, H, C, torque, speed, accel, dts, out):
-    """The batch path: :func:`step` + :func:`estimate` over whole arrays; ``out`` has shape (n, 8)."""
-    row = np.empty(8)
+    """The batch path: :func:`step` + :func:`estimate` over whole arrays; ``out`` has shape (n, 9)."""
+    row = np.empty(9)
     for i in range(torque.shape[0]):
         step(S, H, C, torque[i], speed[i], accel[i], dts[i])
         estimate(S, C, row)
-        for j in range(8):
+        for j in range(9):
             out[i, j] = row[j]

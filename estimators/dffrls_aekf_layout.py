@@ -66,7 +66,8 @@ FUSED = 57
 P0_B = 58
 BIAS_VAR = 59
 CORR_N = 60
-N_C = 61
+N_BUF = 61  # history entries kept (>= N_HIST): the spread gate's reach
+N_C = 62
 # --- state S ------------------------------------------------------------------------------------------------------
 V = 0
 TH = 1
@@ -138,5 +139,6 @@ PCB = 66
 PDB = 67
 DIST0 = 68
 NIS = 69  # normalised innovation squared of the last accepted speed correction (held; 1 before the first)
-N_S = 70
+SCORE = 70  # accumulated negative log-likelihood of the force balance (the geometry bank's evidence)
+N_S = 71
 N_HIST_MAX = 512

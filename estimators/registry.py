@@ -20,7 +20,8 @@ _REGISTRY: dict[str, str] = {
     "dffrls": "estimators.rls:DFFRLSMassEstimator",
     "ekf": "estimators.ekf:JointEKF",
     "rls-ekf": "estimators.two_layer:RLSEKF",
-    "dffrls-aekf": "estimators.dffrls_aekf:DFFRLSAEKF",  # the project's variant, env default
+    # the project's variant, env default: a bank over the slope geometry (one member: estimators.dffrls_aekf)
+    "dffrls-aekf": "estimators.geometry_bank:GeometryBank",
     "dffrls-aekf-paper": "estimators.dffrls_aekf_paper:DFFRLSAEKFPaper",
     # issue 10: mass, gravity slope and resistance offset from all on-board signals, learned gravity blend
     "fused": "estimators.fused:FusedObserver",

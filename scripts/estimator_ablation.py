@@ -27,9 +27,10 @@ from uuom_gym.sim.protocol_runs import RunSpec, make_run
 
 # (label, estimator, options): one deviation switched off per row
 VARIANTS: list[tuple[str, str, dict]] = [
-    ("dffrls-aekf (all deviations)", "dffrls-aekf", {}),
+    ("dffrls-aekf (all deviations; geometry bank: point mass or 12 m window)", "dffrls-aekf", {}),
+    ("- geometry bank: the 12 m window fixed (the env's plant setting)", "dffrls-aekf", {"train_length_m": 12.0}),
+    ("- geometry bank: the point slope fixed", "dffrls-aekf", {"train_length_m": 0.0}),
     ("- accelerometer drives the slope EKF (paper's torque/mass model)", "dffrls-aekf", {"use_accel": False}),
-    ("- slope under the train, 12 m window (point slope)", "dffrls-aekf", {"train_length_m": 0.0}),
     ("- load pendulum in the regression (rigid load)", "dffrls-aekf", {"chain_length_m": 0.0}),
     ("- vector forgetting (paper's single lambda)", "dffrls-aekf", {"mass_forgetting_ratio": 1.0}),
     ("- offset parameter (mu cos(theta) regressor)", "dffrls-aekf", {"offset_forgetting_ratio": 0.0}),

@@ -44,7 +44,7 @@ def faulty() -> Trace:
 def test_registered_and_selectable() -> None:
     names = estimators.available()
     assert "dffrls-aekf" in names and "dffrls-aekf-paper" in names
-    assert type(estimators.make("dffrls-aekf")).__name__ == "DFFRLSAEKF"
+    assert type(estimators.make("dffrls-aekf")).__name__ == "GeometryBank"  # geometry bank of DFFRLSAEKF members
     assert type(estimators.make("dffrls-aekf-paper")).__name__ == "DFFRLSAEKFPaper"
     with pytest.raises(TypeError, match="no_such_option"):
         estimators.make("dffrls-aekf", no_such_option=1)
@@ -111,9 +111,10 @@ def test_covariances_stay_spd_per_sample(name: str, faulty: Trace) -> None:
     for i in range(0, len(t)):
         est.update(faulty["torque_nm"][i], faulty["speed_mps"][i], faulty["accel_mps2"][i], dts[i])
         if i % 7 == 0:
-            for P in (est.slope_P, est.mass_P, est.regression_P):
-                assert np.all(np.isfinite(P)) and P[0, 1] == P[1, 0]
-                assert np.linalg.eigvalsh(P).min() > 0.0
+            for m in getattr(est, "members", [est]):  # dffrls-aekf: every member of the geometry bank
+                for P in (m.slope_P, m.mass_P, m.regression_P):
+                    assert np.all(np.isfinite(P)) and P[0, 1] == P[1, 0]
+                    assert np.linalg.eigvalsh(P).min() > 0.0
 
 
 @pytest.mark.parametrize("name", ["dffrls-aekf", "dffrls-aekf-paper", "fused"])

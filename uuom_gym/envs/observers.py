@@ -20,6 +20,13 @@ SENSOR_KEYS: tuple[str, ...] = SENSOR_COLUMNS
 """The sensor channels of a policy step, in the order of ``Estimator.update``'s arguments."""
 
 
+PLANT_GEOMETRY_OPTIONS: dict[str, dict[str, Any]] = {"dffrls-aekf": {"train_length_m": 12.0}}
+"""What the env's plant tells an observer about itself unless the observer options say otherwise: where along the
+train gravity acts relative to the sensors (the slope averaged over 12 m behind them, the window chosen on plant
+runs). Offline, where a vehicle file does not say it, ``dffrls-aekf`` learns the geometry (a bank over a point mass
+and this window, :mod:`estimators.geometry_bank`); in the env it is known, as it is to whoever mounts the sensors."""
+
+
 class UnknownObserverError(ValueError):
     """An observer name that is neither an estimator nor ``oracle`` / ``none``."""
 
@@ -155,6 +162,9 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
         raise UnknownObserverError(
             f"unknown observer {name!r}; choose 'oracle', 'none' or an estimator: {', '.join(estimators.available())}"
         )
+    options = dict(options or {})
+    if not {"train_length_m", "windows_m"} & set(options):
+        options = {**PLANT_GEOMETRY_OPTIONS.get(name, {}), **options}
     return EstimatorObserver(vehicle, name, options)
 
 

@@ -91,7 +91,9 @@ class UUOMTrackEnv(gym.Env):
     | 15  | stop_margin           | (measured speed - sqrt(2 x 0.3 m/s^2 x distance to go)) / 2   | -2   | 2   |
 
     Position is odometry (integrated encoder speed) reset at track-side markers every 25 m. There is no grade
-    preview: roadways have no surveyed grade map. With ``observer="oracle"`` entries 3-7 are the truth (std 0;
+    preview: roadways have no surveyed grade map. The default observer ``dffrls-aekf`` is told the plant's geometry
+    (slope averaged over 12 m behind the sensors, ``observers.PLANT_GEOMETRY_OPTIONS``; offline it learns it).
+    With ``observer="oracle"`` entries 3-7 are the truth (std 0;
     ``observer_options={"mass_error": e, "slope_error_deg": d}`` adds a set error, for sensitivity studies);
     with ``observer="none"`` they hold the prior and the worst-case limit (rated load, steepest down-grade).
     Entries 12-15 are functions of the others and of the previous step's speed, which a memoryless policy
@@ -174,6 +176,9 @@ class UUOMTrackEnv(gym.Env):
       around 1 starts it at the cautious limit and lets it learn where to go above it. The id
       ``UUOM-Track-SpeedTarget-v0`` registers this class with the rev. 5 speed-target configuration
       (``uuom_gym.registration.SPEED_TARGET_KWARGS``).
+    * v0 (rev. 6, no id change, behaviour unchanged): the registered ``dffrls-aekf`` became a geometry bank that
+      learns where gravity acts (``estimators.geometry_bank``); the env keeps the plant's known 12 m window
+      (``train_length_m=12`` unless ``observer_options`` say otherwise), so episodes are identical.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

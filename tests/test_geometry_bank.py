@@ -1,0 +1,105 @@
+"""``dffrls-aekf`` as a geometry bank (:mod:`estimators.geometry_bank`): it learns where gravity acts from the data.
+
+Accuracy is checked on one seeded run of each simulator, with loose bounds (the protocol's tables have the
+statistics); the rest checks the mechanics: one window is the member exactly, per-sample updates equal the batch
+run, bad options are refused, the env keeps the plant's known geometry.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+import pytest
+
+import estimators
+from estimators.dffrls_aekf import DFFRLSAEKF
+from estimators.geometry_bank import DEFAULT_WINDOWS_M, GeometryBank, mixture
+from uuom_core.trace import Trace
+from uuom_gym.sim.protocol_runs import RunSpec, make_run
+
+
+@lru_cache(maxsize=None)
+def protocol_run(world: str, index: int) -> Trace:
+    return make_run(RunSpec(world, f"{world}-{index:03d}", index, index, world))
+
+
+def _errors(tr: Trace, s) -> tuple[float, float]:
+    k = tr["t_s"] >= tr["t_s"][0] + 10.0
+    m = tr["mass_kg"][k]
+    mass = float(np.max(np.abs(s.mass_kg[k] - m) / m))
+    slope = float(np.sqrt(np.mean((s.slope_deg[k] - tr["effective_slope_deg"][k]) ** 2)))
+    return mass, slope
+
+
+@pytest.mark.parametrize("world, index, member", [("point", 1, 0), ("plant", 0, 1)])
+def test_learns_the_geometry_of_each_world(world: str, index: int, member: int) -> None:
+    # protocol run point-001 (a point mass: gravity at the sensors) and plant-000 (the 18 m train), both with
+    # traction at grade changes, where the geometry shows; the same estimator, no options
+    tr = protocol_run(world, index)
+    bank = estimators.make("dffrls-aekf")
+    s = bank.run(tr)
+    w = bank.weights
+    assert w[member] > 0.99, f"{world}: weights {w} (windows {bank.windows_m})"
+    key = f"weight_window_{DEFAULT_WINDOWS_M[member]:g}m"
+    assert s.extras[key][-1] == pytest.approx(w[member])
+    mass, slope = _errors(tr, s)
+    # the wrong fixed geometry on the same run, for contrast: what the bank avoids
+    wrong = DFFRLSAEKF(train_length_m=DEFAULT_WINDOWS_M[1 - member]).run(tr)
+    assert slope < 0.5 * _errors(tr, wrong)[1]
+    assert slope < 0.6 and mass < 0.15
+
+
+def test_one_window_is_that_member_exactly() -> None:
+    tr = protocol_run("point", 1)
+    a = estimators.make("dffrls-aekf", train_length_m=12.0).run(tr)
+    b = DFFRLSAEKF(train_length_m=12.0).run(tr)
+    for x, y in ((a.mass_kg, b.mass_kg), (a.slope_rad, b.slope_rad), (a.mass_std_kg, b.mass_std_kg),
+                 (a.slope_std_rad, b.slope_std_rad), (a.extras["mu"], b.extras["mu"])):
+        np.testing.assert_array_equal(x, y)
+
+
+def test_update_per_sample_equals_run() -> None:
+    tr = protocol_run("point", 1)
+    n = 4000
+    t = tr["t_s"][:n]
+    bank = GeometryBank()
+    ref = bank.run(Trace({k: v[:n] for k, v in tr.columns.items()}))
+    bank.reset()
+    dts = np.diff(t, prepend=t[0] - (t[1] - t[0]))
+    for i in range(n):
+        e = bank.update(tr["torque_nm"][i], tr["speed_mps"][i], tr["accel_mps2"][i], dts[i])
+    assert e.mass_kg == pytest.approx(ref.mass_kg[-1], rel=1e-12)
+    assert e.slope_rad == pytest.approx(ref.slope_rad[-1], rel=1e-9, abs=1e-12)
+    assert e.extras["weight_window_0m"] == pytest.approx(ref.extras["weight_window_0m"][-1], rel=1e-9)
+
+
+def test_mixture_mean_and_spread() -> None:
+    w, m, s = mixture(np.array([[0.0], [math.log(3.0)]]), np.array([[1.0], [5.0]]), np.array([[1.0], [1.0]]))
+    np.testing.assert_allclose(w[:, 0], [0.75, 0.25])
+    assert m[0] == pytest.approx(2.0)
+    assert s[0] == pytest.approx(math.sqrt(1.0 + 0.75 * 1.0 + 0.25 * 9.0))
+
+
+@pytest.mark.parametrize("options, match", [
+    ({"windows_m": ()}, "windows_m"),
+    ({"windows_m": (0.0, -1.0)}, "windows_m"),
+    ({"windows_m": (0.0, math.nan)}, "windows_m"),
+    ({"windows_m": (0.0, 12.0), "train_length_m": 12.0}, "not both"),
+    ({"fused": True}, "fused"),
+    ({"no_such_option": 1}, "unknown option"),
+])
+def test_bad_options_are_named(options: dict, match: str) -> None:
+    with pytest.raises((ValueError, TypeError), match=match):
+        estimators.make("dffrls-aekf", **options)
+
+
+def test_env_tells_its_observer_the_plants_geometry() -> None:
+    from uuom_core.vehicle import DEFAULT_VEHICLE
+    from uuom_gym.envs.observers import make_observer
+
+    est = make_observer("dffrls-aekf", DEFAULT_VEHICLE).estimator
+    assert est.windows_m == (12.0,)
+    assert make_observer("dffrls-aekf", DEFAULT_VEHICLE, {"windows_m": (0.0, 12.0)}).estimator.windows_m == (0.0, 12.0)
+    assert make_observer("dffrls-aekf", DEFAULT_VEHICLE, {"train_length_m": 0.0}).estimator.windows_m == (0.0,)

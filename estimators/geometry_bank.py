@@ -27,7 +27,8 @@ from uuom_core.trace import Trace
 from uuom_core.vehicle import VehicleParams
 
 from . import dffrls_aekf_kernel as kern
-from .base import Estimate, EstimateSeries, Estimator
+from . import geometry_bank_kernel as bk
+from .base import Estimate, EstimateSeries, Estimator, first_step_dts
 from .dffrls_aekf import DFFRLSAEKF, DFFRLSAEKFConfig
 
 __all__ = ["DEFAULT_WINDOWS_M", "GeometryBank", "mixture"]
@@ -94,6 +95,17 @@ class GeometryBank(Estimator):
                 self.members = [DFFRLSAEKF(self.vehicle, base, **options, train_length_m=w, spread_length_m=reach)
                                 for w in windows]
         self.config = self.members[0].config
+        k = len(self.members)
+        # the members' arrays are rows of three stacked arrays, so the compiled bank step sees them all at once
+        self._SS = np.zeros((k, kern.N_S))
+        self._HH = np.zeros((k, kern.N_HIST_MAX))
+        self._CC = np.ascontiguousarray(np.stack([m.C for m in self.members]))
+        for i, m in enumerate(self.members):
+            m.S, m.H, m.C = self._SS[i], self._HH[i], self._CC[i]
+        self._rows = np.zeros((k, 9))
+        self._out = np.zeros(bk.N_OUT_FIXED + k)
+        self._weight_keys = [f"weight_window_{w:g}m" for w in self.windows_m]
+        self.reset()
 
     @property
     def single(self) -> DFFRLSAEKF | None:
@@ -107,8 +119,8 @@ class GeometryBank(Estimator):
     def update(self, torque_nm: float, speed_mps: float, accel_mps2: float, dt_s: float,
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
-        for m in self.members:
-            kern.step(m.S, m.H, m.C, float(torque_nm), float(speed_mps), float(accel_mps2), float(dt_s))
+        bk.bank_step(self._SS, self._HH, self._CC, float(torque_nm), float(speed_mps), float(accel_mps2),
+                     float(dt_s))
         return self.estimate
 
     def update_block(self, torque_nm, speed_mps, accel_mps2, dt_s, motor_speed_radps=None, gyro_radps=None,
@@ -128,30 +140,26 @@ class GeometryBank(Estimator):
     def estimate(self) -> Estimate:
         if self.single is not None:
             return self.single.estimate
-        rows = []
-        for m in self.members:
-            o = np.zeros(9)
-            kern.estimate(m.S, m.C, o)
-            rows.append(o)
-        est = self._combine(np.array(rows)[:, :, None])
-        return Estimate(*(float(x[0]) for x in est[:4]), {k: float(v[0]) for k, v in est[4].items()})
+        o = self._out
+        bk.bank_estimate(self._SS, self._CC, self._rows, o)
+        extras = {"mu": float(o[4]), "mu_std": float(o[5]), "nis": float(o[6])}
+        for i, key in enumerate(self._weight_keys):
+            extras[key] = float(o[bk.N_OUT_FIXED + i])
+        return Estimate(float(o[0]), float(o[1]), float(o[2]), float(o[3]), extras)
 
     def run(self, trace: Trace, reset: bool = True, *, t_prev_s: float | None = None) -> EstimateSeries:
-        """Every member over the whole trace (compiled loops), then the mixture per sample."""
+        """The whole trace in one compiled loop over all members; the same results as :meth:`update` per sample."""
         if self.single is not None:
             return self.single.run(trace, reset, t_prev_s=t_prev_s)
-        outs = [m.run_rows(trace, reset, t_prev_s=t_prev_s) for m in self.members]
-        t = outs[0][0]
-        mass, slope, mass_std, slope_std, extras = self._combine(np.array([o[1] for o in outs]))
-        return EstimateSeries(t if t is not trace["t_s"] else t.copy(), mass, slope, mass_std, slope_std, extras)
-
-    def _combine(self, r: np.ndarray):
-        """Mix the members' output rows ``r`` (members x 9 x samples)."""
-        score = r[:, 8]
-        w, mass, mass_std = mixture(score, r[:, 0], r[:, 2])
-        _, slope, slope_std = mixture(score, r[:, 1], r[:, 3])
-        _, mu, mu_std = mixture(score, r[:, 4], r[:, 5])
-        extras = {"mu": mu, "mu_std": mu_std, "nis": np.sum(w * r[:, 7], axis=0)}
-        for k, win in enumerate(self.windows_m):
-            extras[f"weight_window_{win:g}m"] = w[k]
-        return mass, slope, mass_std, slope_std, extras
+        if reset:
+            self.reset()
+        t = np.ascontiguousarray(trace["t_s"], dtype=np.float64)
+        dts = first_step_dts(t, t_prev_s)
+        out = np.empty((len(self._out), len(t))).T  # column-major: each output is a contiguous view
+        col = [np.ascontiguousarray(trace[k], dtype=np.float64) for k in ("torque_nm", "speed_mps", "accel_mps2")]
+        bk.bank_run(self._SS, self._HH, self._CC, col[0], col[1], col[2], dts, out)
+        r = out.T
+        extras = {"mu": r[4], "mu_std": r[5], "nis": r[6]}
+        for i, key in enumerate(self._weight_keys):
+            extras[key] = r[bk.N_OUT_FIXED + i]
+        return EstimateSeries(t if t is not trace["t_s"] else t.copy(), r[0], r[1], r[2], r[3], extras)

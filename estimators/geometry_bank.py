@@ -77,23 +77,19 @@ class GeometryBank(Estimator):
             windows_m = (options.pop("train_length_m"),) if "train_length_m" in options else DEFAULT_WINDOWS_M
         elif "train_length_m" in options:
             raise ValueError(f"{self.name}: give windows_m or train_length_m, not both")
-        windows = [w if w is None else float(w) for w in windows_m]
-        if not windows or any(w is not None and not (math.isfinite(w) and w >= 0.0) for w in windows):
+        # None: the vehicle's length, as for a single filter
+        windows = [self.vehicle.length_m if w is None else float(w) for w in windows_m]
+        if not windows or any(not (math.isfinite(w) and w >= 0.0) for w in windows):
             raise ValueError(f"{self.name}: windows_m must be finite lengths >= 0, got {windows_m!r}")
         base = config or DFFRLSAEKFConfig()
         if base.fused or options.get("fused"):
             raise ValueError(f"{self.name}: the members are dffrls-aekf filters (fused=False); use 'fused'")
         self.windows_m = tuple(windows)
-        self.members = [DFFRLSAEKF(self.vehicle, base, **options, train_length_m=w) for w in windows]
-        if len(windows) > 1:
+        if len(windows) > 1 and options.get("spread_length_m", base.spread_length_m) is None:
             # one spread gate for all: every member stops updating at the same grade changes and is scored there
             # with the parameters it had before them, so only the geometry tells the members apart
-            lengths = [m.config.train_length_m if m.config.train_length_m is not None else self.vehicle.length_m
-                       for m in self.members]
-            reach = max(lengths) if self.members[0].config.spread_length_m is None else None
-            if reach is not None:
-                self.members = [DFFRLSAEKF(self.vehicle, base, **options, train_length_m=w, spread_length_m=reach)
-                                for w in windows]
+            options = {**options, "spread_length_m": max(windows)}
+        self.members = [DFFRLSAEKF(self.vehicle, base, **options, train_length_m=w) for w in windows]
         self.config = self.members[0].config
         k = len(self.members)
         # the members' arrays are rows of three stacked arrays, so the compiled bank step sees them all at once

@@ -86,6 +86,7 @@ def test_mixture_mean_and_spread() -> None:
     ({"windows_m": ()}, "windows_m"),
     ({"windows_m": (0.0, -1.0)}, "windows_m"),
     ({"windows_m": (0.0, math.nan)}, "windows_m"),
+    ({"windows_m": (0.0, math.inf)}, "windows_m"),
     ({"windows_m": (0.0, 12.0), "train_length_m": 12.0}, "not both"),
     ({"fused": True}, "fused"),
     ({"no_such_option": 1}, "unknown option"),

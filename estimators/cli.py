@@ -17,6 +17,7 @@ status 130. In every case the output file is untouched unless the run completed,
 from __future__ import annotations
 
 import argparse
+import ast
 import json
 import math
 import os
@@ -275,6 +276,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--estimator", default="dffrls-aekf", metavar="NAME", help="estimator name (default dffrls-aekf)")
     p.add_argument("--out", metavar="ESTIMATES.csv",
                    help="output CSV, written whole or not at all (never a symlink, device or the input)")
+    p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                   help="estimator option, repeatable; VALUE a Python literal (e.g. train_length_m=12 gives "
+                        "dffrls-aekf the 12 m slope window fixed instead of learning the geometry)")
     p.add_argument("--settle-s", type=float, default=10.0, help="convergence time excluded from the errors (s)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
     p.add_argument("--list", action="store_true", help="list the estimators (name and what each estimates) and exit")
@@ -289,6 +293,30 @@ def _list() -> int:
     for name, why in broken.items():
         print(f"{PROG}: note: {name} unavailable ({why})", file=sys.stderr)
     return 0
+
+
+def _parse_options(items: Sequence[str]) -> dict[str, Any]:
+    """``KEY=VALUE`` strings as keyword options; VALUE a Python literal, else the string itself."""
+    options: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip().isidentifier():
+            raise _CliError(f"--option {item!r}: expected KEY=VALUE with KEY an option name")
+        try:
+            value = ast.literal_eval(text.strip())
+        except (ValueError, SyntaxError):
+            value = text.strip()
+        options[key.strip()] = value
+    return options
+
+
+def _make(cls: type, vehicle, name: str, items: Sequence[str]):
+    """The estimator with its ``--option`` values; a bad option is a one-line error naming it."""
+    options = _parse_options(items)
+    try:
+        return cls(vehicle, **options)
+    except (TypeError, ValueError) as exc:
+        raise _CliError(f"--option: {name}: {exc}") from None
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -307,6 +335,7 @@ def _run(args: argparse.Namespace) -> int:
     if len(columns) == 1:
         raise _CliError(f"--estimator: {args.estimator} estimates nothing uuom-estimate can write")
     vehicle = _load_vehicle(args.vehicle)
+    estimator = _make(cls, vehicle, args.estimator, args.option)
     if args.out is not None:
         inputs = [args.trace] + ([args.vehicle] if args.vehicle else [])
         try:
@@ -330,7 +359,7 @@ def _run(args: argparse.Namespace) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TraceWarning)
         try:
-            _estimate_blocks(cls(vehicle), blocks, columns, args.out, scores, needs, args.estimator)
+            _estimate_blocks(estimator, blocks, columns, args.out, scores, needs, args.estimator)
         except TraceFormatError as exc:
             raise _CliError(str(exc)) from None
         except OSError as exc:

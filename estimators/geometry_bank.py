@@ -17,7 +17,6 @@ variance including the spread between members).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import Any, ClassVar, Sequence
 
@@ -28,23 +27,13 @@ from uuom_core.vehicle import VehicleParams
 
 from . import dffrls_aekf_kernel as kern
 from . import geometry_bank_kernel as bk
-from .base import Estimate, EstimateSeries, Estimator, first_step_dts
-from .dffrls_aekf import DFFRLSAEKF, DFFRLSAEKFConfig
+from .base import Estimate, EstimateSeries, Estimator
+from .dffrls_aekf import DFFRLSAEKF, DFFRLSAEKFConfig, batch_arrays
 
-__all__ = ["DEFAULT_WINDOWS_M", "GeometryBank", "mixture"]
+__all__ = ["DEFAULT_WINDOWS_M", "GeometryBank"]
 
 DEFAULT_WINDOWS_M: tuple[float, ...] = (0.0, 12.0)
 """A point mass, and the window that fits the project's plant (``estimators.dffrls_aekf``: chosen on plant runs)."""
-
-
-def mixture(score: np.ndarray, mean: np.ndarray, std: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Weights ``∝ exp(−score)`` over axis 0 and the mixture's mean and standard deviation (axis 0 = members)."""
-    s = score - np.min(score, axis=0)
-    w = np.exp(-s)
-    w /= np.sum(w, axis=0)
-    m = np.sum(w * mean, axis=0)
-    var = np.sum(w * (std * std + (mean - m) ** 2), axis=0)
-    return w, m, np.sqrt(var)
 
 
 class GeometryBank(Estimator):
@@ -129,8 +118,8 @@ class GeometryBank(Estimator):
     @property
     def weights(self) -> np.ndarray:
         """The members' current weights (sum 1)."""
-        score = np.array([m.S[kern.SCORE] for m in self.members])
-        return mixture(score, score, score)[0]
+        bk.bank_estimate(self._SS, self._CC, self._rows, self._out)
+        return self._out[bk.N_OUT_FIXED:].copy()
 
     @property
     def estimate(self) -> Estimate:
@@ -149,11 +138,8 @@ class GeometryBank(Estimator):
             return self.single.run(trace, reset, t_prev_s=t_prev_s)
         if reset:
             self.reset()
-        t = np.ascontiguousarray(trace["t_s"], dtype=np.float64)
-        dts = first_step_dts(t, t_prev_s)
-        out = np.empty((len(self._out), len(t))).T  # column-major: each output is a contiguous view
-        col = [np.ascontiguousarray(trace[k], dtype=np.float64) for k in ("torque_nm", "speed_mps", "accel_mps2")]
-        bk.bank_run(self._SS, self._HH, self._CC, col[0], col[1], col[2], dts, out)
+        t, dts, cols, out = batch_arrays(trace, t_prev_s, len(self._out))
+        bk.bank_run(self._SS, self._HH, self._CC, *cols, dts, out)
         r = out.T
         extras = {"mu": r[4], "mu_std": r[5], "nis": r[6]}
         for i, key in enumerate(self._weight_keys):

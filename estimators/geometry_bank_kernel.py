@@ -12,7 +12,7 @@ import numpy as np
 from .dffrls_aekf_kernel import estimate, step
 from .numba_shim import njit
 
-__all__ = ["bank_estimate", "bank_run", "bank_step", "N_OUT_FIXED"]
+__all__ = ["bank_estimate", "bank_run", "bank_step", "mix", "N_OUT_FIXED"]
 
 N_OUT_FIXED = 7
 """Entries of a bank output row before the weights: mass, slope, mass std, slope std, mu, mu std, nis."""
@@ -20,10 +20,17 @@ N_OUT_FIXED = 7
 
 @njit(cache=True)
 def bank_estimate(SS, CC, rows, out):
-    """Members' estimates into ``rows`` (k x 9), their mixture into ``out``: the fixed entries, then k weights."""
-    k = SS.shape[0]
-    for i in range(k):
+    """Members' estimates into ``rows`` (k x 9), their mixture into ``out`` (:func:`mix`)."""
+    for i in range(SS.shape[0]):
         estimate(SS[i], CC[i], rows[i])
+    mix(rows, out)
+
+
+@njit(cache=True)
+def mix(rows, out):
+    """The mixture of the members' output rows (k x 9, score in column 8) into ``out``: the fixed entries, then the
+    k weights ``∝ exp(−score)``; each mean is weighted, each standard deviation includes the members' spread."""
+    k = rows.shape[0]
     lo = rows[0, 8]
     for i in range(1, k):
         lo = min(lo, rows[i, 8])

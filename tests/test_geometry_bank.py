@@ -15,7 +15,8 @@ import pytest
 
 import estimators
 from estimators.dffrls_aekf import DFFRLSAEKF
-from estimators.geometry_bank import DEFAULT_WINDOWS_M, GeometryBank, mixture
+from estimators.geometry_bank import DEFAULT_WINDOWS_M, GeometryBank
+from estimators.geometry_bank_kernel import N_OUT_FIXED, mix
 from uuom_core.trace import Trace
 from uuom_gym.sim.protocol_runs import RunSpec, make_run
 
@@ -76,10 +77,16 @@ def test_update_per_sample_equals_run() -> None:
 
 
 def test_mixture_mean_and_spread() -> None:
-    w, m, s = mixture(np.array([[0.0], [math.log(3.0)]]), np.array([[1.0], [5.0]]), np.array([[1.0], [1.0]]))
-    np.testing.assert_allclose(w[:, 0], [0.75, 0.25])
-    assert m[0] == pytest.approx(2.0)
-    assert s[0] == pytest.approx(math.sqrt(1.0 + 0.75 * 1.0 + 0.25 * 9.0))
+    rows = np.zeros((2, 9))
+    rows[:, 8] = [0.0, math.log(3.0)]  # scores
+    rows[:, 0] = [1.0, 5.0]  # mass means
+    rows[:, 2] = [1.0, 1.0]  # mass standard deviations
+    out = np.zeros(N_OUT_FIXED + 2)
+    mix(rows, out)
+    w, m, s = out[N_OUT_FIXED:], out[0], out[2]
+    np.testing.assert_allclose(w, [0.75, 0.25])
+    assert m == pytest.approx(2.0)
+    assert s == pytest.approx(math.sqrt(1.0 + 0.75 * 1.0 + 0.25 * 9.0))
 
 
 @pytest.mark.parametrize("options, match", [

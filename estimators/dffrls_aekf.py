@@ -93,6 +93,10 @@ class DFFRLSAEKFConfig:
         (A) Sage-Husa adaptation of the speed-noise variance (the paper adapts Q, R and the means).
     max_slope_spread_rad : float
         (A) No mass update while the slope under the sensors and ``spread_length_m`` behind differ by more.
+    max_geometry_ambiguity_rad : float
+        (A) Geometry bank only: no mass update while its members' slopes for gravity, weighted by their evidence,
+        spread (standard deviation) by more (0.004 rad = 0.23°, chosen on plant tuning runs 1000-1015: median mass
+        max error 6.7 → 5.3 %, 95th percentile unchanged). A single filter never sees an ambiguity.
     spread_length_m : float or None
         How far behind the sensors the spread gate looks (None: ``train_length_m``). The geometry bank gives all
         its members the longest window, so they stop updating at the same grade changes.
@@ -109,6 +113,7 @@ class DFFRLSAEKFConfig:
     gates: bool = True
     adapt_r: bool = True
     max_slope_spread_rad: float = 0.025
+    max_geometry_ambiguity_rad: float = 0.004
     cutoff_hz: float = 1.0
     # slope layer
     speed_std_mps: float = 0.01
@@ -146,7 +151,8 @@ class DFFRLSAEKFConfig:
         """The kernel's settings array for vehicle ``v`` (validates every value)."""
         positive = ("cutoff_hz", "speed_std_mps", "accel_std_mps2", "model_accel_std_mps2", "prior_slope_std_rad",
                     "gate_sigma", "history_step_m", "sigma", "residual_std_mps2", "mu_prior_std", "mu_max",
-                    "slope_ready_std_rad", "gap_s", "dt_nominal_s", "max_slope_spread_rad")
+                    "slope_ready_std_rad", "gap_s", "dt_nominal_s", "max_slope_spread_rad",
+                    "max_geometry_ambiguity_rad")
         non_negative = ("chain_length_m", "mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio",
                         "hook_mass_kg", "min_speed_mps", "min_accel_mps2", "offset_forgetting_ratio",
                         "accel_bias_std_mps2",
@@ -154,7 +160,7 @@ class DFFRLSAEKFConfig:
         for name in positive + non_negative:
             x = getattr(self, name)
             if isinstance(x, bool) or not isinstance(x, (int, float)) or math.isnan(x) or (
-                    x == math.inf and name != "max_slope_spread_rad") or x < 0 or (name in positive and x <= 0):
+                    x == math.inf and not name.startswith("max_")) or x < 0 or (name in positive and x <= 0):
                 kind = "> 0" if name in positive else ">= 0"
                 raise ValueError(f"dffrls-aekf: {name} must be a finite number {kind}, got {x!r}")
         if not (0.5 <= self.delta < 1.0):
@@ -249,6 +255,7 @@ class DFFRLSAEKFConfig:
         C[kern.P0_D] = (self.mu_prior_std * c0) ** 2 + mu0 * mu0 * pc
         C[kern.EST_MU] = float(bool(self.estimate_mu))
         C[kern.MAX_SPREAD] = self.max_slope_spread_rad
+        C[kern.MAX_AMBIG] = self.max_geometry_ambiguity_rad
         C[kern.READY_VAR] = self.slope_ready_std_rad**2
         C[kern.Q_C] = 1e-12  # a tiny random walk: never fully rigid
         return C

@@ -32,12 +32,12 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     SWAY_H, MIN_SPEED, MIN_FORCE, SETTLE_S, T_MAX, T_RATE, T_BAND, V_MAX, V_RATE, V_BAND, F_MAX, F_RATE, F_BAND,
     RELOCK, GATES, R0, R_MIN, R_MAX, FADING, ADAPT_R, ACC_VAR, MODEL_ACC_VAR, GRADE_VAR_M, P0_TH, GATE2, MAX_SLOPE,
     USE_ACCEL, HIST_DS, N_HIST, R_M, DELTA, SIGMA, MASS_FORGET, P0_C, P0_CD, P0_D, EST_MU, MAX_SPREAD, READY_VAR,
-    Q_C, C0, MIN_ACC, OFF_FORGET, FUSED, P0_B, BIAS_VAR, CORR_N, N_BUF, N_C, V, TH, P11, P12, P22, R, K, BK, F_IN, F_OK,
+    Q_C, C0, MIN_ACC, OFF_FORGET, FUSED, P0_B, BIAS_VAR, CORR_N, N_BUF, MAX_AMBIG, N_C, V, TH, P11, P12, P22, R, K, BK, F_IN, F_OK,
     REJ,
     FORCE_IN, GT_LAST, GT_REJ, GV_LAST, GV_REJ, GF_LAST, GF_REJ, LF1, LF2, LF_OK, LV1, LV2, LV_OK, LQ1, LQ2, LQ_OK,
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
-    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, N_S, N_HIST_MAX,
+    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, N_S, N_HIST_MAX,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
@@ -339,6 +339,10 @@ def step(S, H, C, torque, speed, accel, dt):
         s_s = max(S[RES_VAR], C[R_M])
         S[SCORE] += 0.5 * (min(e_s * e_s / s_s, 25.0) + math.log(s_s)) / C[CORR_N]
     if C[FUSED] == 0.0 and not S[SPREAD] < C[MAX_SPREAD]:
+        return
+    if C[FUSED] == 0.0 and S[AMBIG] > C[MAX_AMBIG]:
+        # the bank's members still disagree on the slope gravity acts on and the evidence has not chosen: a mass
+        # learnt now would absorb whichever slope error is the wrong geometry's (0 for a single filter)
         return
     if C[FUSED] != 0.0:
         # the blend is learned only once the window holds slopes measured on the way (not the start-up guess)

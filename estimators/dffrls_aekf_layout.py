@@ -67,7 +67,8 @@ P0_B = 58
 BIAS_VAR = 59
 CORR_N = 60
 N_BUF = 61  # history entries kept (>= N_HIST): the spread gate's reach
-N_C = 62
+MAX_AMBIG = 62  # the geometry bank's ambiguity gate (AMBIG above it: no mass update)
+N_C = 63
 # --- state S ------------------------------------------------------------------------------------------------------
 V = 0
 TH = 1
@@ -140,5 +141,6 @@ PDB = 67
 DIST0 = 68
 NIS = 69  # normalised innovation squared of the last accepted speed correction (held; 1 before the first)
 SCORE = 70  # accumulated negative log-likelihood of the force balance (the geometry bank's evidence)
-N_S = 71
+AMBIG = 71  # written by the geometry bank: how much its members disagree on the slope gravity acts on (rad)
+N_S = 72
 N_HIST_MAX = 512

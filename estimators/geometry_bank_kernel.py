@@ -9,10 +9,10 @@ import math
 
 import numpy as np
 
-from .dffrls_aekf_kernel import estimate, step
+from .dffrls_aekf_kernel import AMBIG, SCORE, TH_TRAIN, estimate, step
 from .numba_shim import njit
 
-__all__ = ["bank_estimate", "bank_run", "bank_step", "mix", "N_OUT_FIXED"]
+__all__ = ["ambiguity", "bank_estimate", "bank_run", "bank_step", "mix", "N_OUT_FIXED"]
 
 N_OUT_FIXED = 7
 """Entries of a bank output row before the weights: mass, slope, mass std, slope std, mu, mu std, nis."""
@@ -58,9 +58,33 @@ def mix(rows, out):
 
 
 @njit(cache=True)
+def ambiguity(SS):
+    """The members' disagreement on the slope gravity acts on: the standard deviation of their ``TH_TRAIN`` under
+    the evidence weights (0 once the evidence has chosen, or where the geometries agree)."""
+    k = SS.shape[0]
+    lo = SS[0, SCORE]
+    for i in range(1, k):
+        lo = min(lo, SS[i, SCORE])
+    wsum = 0.0
+    m = 0.0
+    for i in range(k):
+        w = math.exp(lo - SS[i, SCORE])
+        wsum += w
+        m += w * SS[i, TH_TRAIN]
+    m /= wsum
+    var = 0.0
+    for i in range(k):
+        d = SS[i, TH_TRAIN] - m
+        var += math.exp(lo - SS[i, SCORE]) * d * d
+    return math.sqrt(var / wsum)
+
+
+@njit(cache=True)
 def bank_step(SS, HH, CC, torque, speed, accel, dt):
-    """One sample through every member."""
+    """One sample through every member, each told the members' ambiguity of the sample before."""
+    amb = ambiguity(SS) if SS.shape[0] > 1 else 0.0
     for i in range(SS.shape[0]):
+        SS[i, AMBIG] = amb
         step(SS[i], HH[i], CC[i], torque, speed, accel, dt)
 
 

@@ -30,6 +30,8 @@ VARIANTS: list[tuple[str, str, dict]] = [
     ("dffrls-aekf (all deviations; geometry bank: point mass or 12 m window)", "dffrls-aekf", {}),
     ("- geometry bank: the 12 m window fixed (the env's plant setting)", "dffrls-aekf", {"train_length_m": 12.0}),
     ("- geometry bank: the point slope fixed", "dffrls-aekf", {"train_length_m": 0.0}),
+    ("- geometry bank: mass learnt while the geometry is ambiguous", "dffrls-aekf",
+     {"max_geometry_ambiguity_rad": float("inf")}),
     ("- accelerometer drives the slope EKF (paper's torque/mass model)", "dffrls-aekf", {"use_accel": False}),
     ("- load pendulum in the regression (rigid load)", "dffrls-aekf", {"chain_length_m": 0.0}),
     ("- vector forgetting (paper's single lambda)", "dffrls-aekf", {"mass_forgetting_ratio": 1.0}),

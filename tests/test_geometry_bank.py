@@ -16,7 +16,8 @@ import pytest
 import estimators
 from estimators.dffrls_aekf import DFFRLSAEKF
 from estimators.geometry_bank import DEFAULT_WINDOWS_M, GeometryBank
-from estimators.geometry_bank_kernel import N_OUT_FIXED, mix
+from estimators import dffrls_aekf_kernel as kern
+from estimators.geometry_bank_kernel import N_OUT_FIXED, ambiguity, mix
 from uuom_core.trace import Trace
 from uuom_gym.sim.protocol_runs import RunSpec, make_run
 
@@ -89,6 +90,41 @@ def test_mixture_mean_and_spread() -> None:
     assert s == pytest.approx(math.sqrt(1.0 + 0.75 * 1.0 + 0.25 * 9.0))
 
 
+def test_ambiguity_is_the_evidence_weighted_spread_of_the_slopes() -> None:
+    SS = np.zeros((2, kern.N_S))
+    SS[:, kern.TH_TRAIN] = [0.01, 0.03]
+    SS[:, kern.SCORE] = [0.0, math.log(3.0)]  # weights 0.75 / 0.25
+    mean = 0.75 * 0.01 + 0.25 * 0.03
+    assert ambiguity(SS) == pytest.approx(math.sqrt(0.75 * (0.01 - mean) ** 2 + 0.25 * (0.03 - mean) ** 2))
+    SS[1, kern.SCORE] = 800.0  # the evidence has chosen: no ambiguity, however far apart the members are
+    assert ambiguity(SS) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_no_mass_learnt_while_the_geometry_is_ambiguous() -> None:
+    # point-mass stop-and-go: the train pulls away onto a grade ramp before 12 m of history exist, so the members
+    # disagree and no evidence has chosen; the gate holds every member's mass, which it lets learn again later
+    from uuom_gym.sim.point_mass import simulate_point_mass
+
+    tr = simulate_point_mass("pm-stop-and-go", seed=0)
+    bank = GeometryBank()
+    limit = bank.config.max_geometry_ambiguity_rad
+    dts = np.diff(tr["t_s"], prepend=tr["t_s"][0] - 0.005)
+    held = changed = 0
+    for i in range(len(dts)):
+        before = [m.S[kern.MC] for m in bank.members]
+        bank.update(tr["torque_nm"][i], tr["speed_mps"][i], tr["accel_mps2"][i], dts[i])
+        moved = [m.S[kern.MC] != b for m, b in zip(bank.members, before)]
+        if bank.members[0].S[kern.AMBIG] > limit:
+            assert not any(moved), f"mass learnt at t={tr['t_s'][i]:.2f} s with ambiguity above the gate"
+            held += 1
+        changed += any(moved)
+    assert held > 1000 and changed > 1000  # the gate closed for seconds, and the masses learnt elsewhere
+    # without the gate the window member learns the ramp's slope lag as mass
+    mass_gated, _ = _errors(tr, GeometryBank().run(tr))
+    mass_open, _ = _errors(tr, GeometryBank(max_geometry_ambiguity_rad=math.inf).run(tr))
+    assert mass_gated < mass_open
+
+
 @pytest.mark.parametrize("options, match", [
     ({"windows_m": ()}, "windows_m"),
     ({"windows_m": (0.0, -1.0)}, "windows_m"),
@@ -96,6 +132,8 @@ def test_mixture_mean_and_spread() -> None:
     ({"windows_m": (0.0, math.inf)}, "windows_m"),
     ({"windows_m": (0.0, 12.0), "train_length_m": 12.0}, "not both"),
     ({"fused": True}, "fused"),
+    ({"max_geometry_ambiguity_rad": -0.1}, "max_geometry_ambiguity_rad"),
+    ({"max_geometry_ambiguity_rad": math.nan}, "max_geometry_ambiguity_rad"),
     ({"no_such_option": 1}, "unknown option"),
 ])
 def test_bad_options_are_named(options: dict, match: str) -> None:

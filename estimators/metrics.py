@@ -9,7 +9,10 @@ means the same thing everywhere:
 - :func:`settling_time_s` -- the time from the start after which the error stays within a tolerance to the end;
 - :func:`consistency` -- normalised estimation error squared (NEES) of a scalar estimate against its reported
   standard deviation, its χ² 95 % band, and the fraction of samples whose truth lies inside ±2σ;
-- :func:`distribution` -- median / p90 / p95 / max of a per-run metric across runs (NaN-aware).
+- :func:`distribution` -- median / p90 / p95 / max of a per-run metric across runs (NaN-aware);
+- :func:`normalised_error_samples`, :func:`pooled_autocorrelation`, :func:`consistent_in_band_share`,
+  :func:`effective_samples` -- what the NEES band test can give at all when the errors are correlated in time
+  (``scripts/nees_ceiling.py``).
 
 Pure numpy (scipy for the χ² quantiles); no dependency on the simulators.
 """
@@ -28,7 +31,11 @@ __all__ = [
     "ErrorStats",
     "chi2_band",
     "consistency",
+    "consistent_in_band_share",
     "distribution",
+    "effective_samples",
+    "normalised_error_samples",
+    "pooled_autocorrelation",
     "error_after_settling",
     "NisTest",
     "nis_consistency",
@@ -308,3 +315,69 @@ def distribution(values) -> dict[str, float]:
     # nearest rank: a percentile is a value some run actually had (and inf survives)
     q = np.percentile(v, [50, 90, 95], method="inverted_cdf")
     return {"n": int(v.size), "median": float(q[0]), "p90": float(q[1]), "p95": float(q[2]), "max": float(v.max())}
+
+
+def normalised_error_samples(t_s: np.ndarray, estimate: np.ndarray, std: np.ndarray, truth: np.ndarray,
+                             settle_s: float = 10.0, *, every_s: float = 1.0) -> np.ndarray:
+    """``error / std`` at the samples :func:`consistency` averages (one per ``every_s`` after settling), finite
+    values only."""
+    m = settled_mask(t_s, settle_s, truth)
+    if not np.any(m):
+        return np.zeros(0)
+    idx = _one_per(np.asarray(t_s, dtype=float)[m], every_s)
+    err = _errors(np.asarray(estimate)[m], np.asarray(truth)[m], False)[idx]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = err / np.asarray(std, dtype=float)[m][idx]
+    return z[np.isfinite(z)]
+
+
+def pooled_autocorrelation(sequences, max_lag: int) -> np.ndarray:
+    """Autocorrelation at lags ``0..max_lag`` (in samples) pooled over sequences, each first scaled to unit RMS so
+    that the shape of the correlation is measured and not the scale. Not demeaned: a bias is part of the error."""
+    num = np.zeros(max_lag + 1)
+    den = np.zeros(max_lag + 1)
+    for z in sequences:
+        z = np.asarray(z, dtype=float)
+        rms = math.sqrt(float(np.mean(z * z))) if len(z) else 0.0
+        if len(z) < 2 or rms == 0.0:
+            continue
+        u = z / rms
+        for k in range(min(max_lag, len(u) - 1) + 1):
+            num[k] += float(np.sum(u[:len(u) - k] * u[k:]))
+            den[k] += len(u) - k
+    if den[0] == 0:
+        raise ValueError("pooled_autocorrelation needs at least one sequence of two or more non-zero samples")
+    acf = np.where(den > 0, num / np.maximum(den, 1.0), 0.0)
+    return acf / acf[0]
+
+
+def consistent_in_band_share(lengths, acf: np.ndarray, rng: np.random.Generator, draws: int = 20) -> float:
+    """Share of runs whose NEES falls in :func:`chi2_band` (independent samples) for a *consistent* estimator:
+    unit-variance Gaussian errors with autocorrelation ``acf`` (lags in samples), one run per entry of ``lengths``,
+    ``draws`` times each. The ceiling of the NEES band test for errors with that correlation."""
+    from scipy.linalg import toeplitz
+
+    hits = total = 0
+    for n in lengths:
+        n = int(n)
+        if n < 1:
+            continue
+        r = np.zeros(n)
+        k = min(n, len(acf))
+        r[:k] = acf[:k]
+        w, v = np.linalg.eigh(toeplitz(r))  # a pooled ACF need not be positive definite: clip its spectrum
+        root = v * np.sqrt(np.clip(w, 0.0, None))
+        lo, hi = chi2_band(n)
+        for _ in range(draws):
+            z = root @ rng.standard_normal(n)
+            hits += lo <= float(np.mean(z * z)) <= hi
+            total += 1
+    return hits / total if total else math.nan
+
+
+def effective_samples(n: int, acf: np.ndarray) -> float:
+    """``n / (1 + 2 Σ_k (1 − k/n) ρ_k)``: how many independent samples ``n`` correlated ones are worth (≥ 1)."""
+    rho = np.asarray(acf, dtype=float)[1:n]
+    lags = np.arange(1, len(rho) + 1)
+    return max(1.0, n / (1.0 + 2.0 * float(np.sum(rho * (1.0 - lags / n)))))
+

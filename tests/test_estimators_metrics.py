@@ -88,3 +88,84 @@ def test_distribution() -> None:
     assert distribution([math.nan])["n"] == 0
     v = distribution(range(1, 101))
     assert v["p95"] == 95.0 and v["p90"] == 90.0 and v["max"] == 100.0
+
+
+# --- what the NEES band test can give with correlated errors ----------------------------------------------------
+
+
+def test_consistent_share_is_the_band_level_for_independent_errors() -> None:
+    from estimators.metrics import consistent_in_band_share
+
+    rng = np.random.default_rng(0)
+    acf = np.r_[1.0, np.zeros(49)]
+    share = consistent_in_band_share([50] * 200, acf, rng, draws=5)
+    assert 0.92 <= share <= 0.98  # 95 % band, 1000 draws
+
+
+def test_consistent_share_collapses_for_a_bias() -> None:
+    # an error that is one draw for the whole run (ρ = 1): the average of 50 "samples" is χ²(1), which falls in the
+    # band of 50 independent samples [0.65, 1.43] with probability ~0.16
+    from scipy.stats import chi2
+
+    from estimators.metrics import chi2_band, consistent_in_band_share
+
+    lo, hi = chi2_band(50)
+    expected = chi2.cdf(hi, 1) - chi2.cdf(lo, 1)
+    share = consistent_in_band_share([50] * 200, np.ones(50), np.random.default_rng(1), draws=5)
+    assert abs(share - expected) < 0.05 and share < 0.3
+
+
+def test_pooled_autocorrelation_of_an_ar1_process() -> None:
+    from estimators.metrics import effective_samples, pooled_autocorrelation
+
+    rng = np.random.default_rng(2)
+    phi = 0.8
+    seqs = []
+    for _ in range(200):
+        z = np.empty(60)
+        z[0] = rng.standard_normal()
+        for k in range(1, 60):
+            z[k] = phi * z[k - 1] + np.sqrt(1 - phi**2) * rng.standard_normal()
+        seqs.append(3.0 * z)  # the scale must not matter
+    acf = pooled_autocorrelation(seqs, 10)
+    assert acf[0] == 1.0
+    np.testing.assert_allclose(acf[1:4], phi ** np.arange(1, 4), atol=0.06)
+    assert effective_samples(60, np.ones(60)) == 1.0
+    assert effective_samples(60, np.r_[1.0, np.zeros(59)]) == 60.0
+    assert 5.0 < effective_samples(60, phi ** np.arange(60)) < 15.0  # ~ n (1 - φ) / (1 + φ) = 6.7 plus edge terms
+
+
+def test_pooled_autocorrelation_refuses_empty_input() -> None:
+    from estimators.metrics import pooled_autocorrelation
+
+    with pytest.raises(ValueError, match="at least one sequence"):
+        pooled_autocorrelation([np.zeros(5), np.ones(1)], 3)
+
+
+def test_normalised_error_samples_match_consistency() -> None:
+    from estimators.metrics import consistency, normalised_error_samples
+
+    t = np.arange(0.0, 60.0, 0.005)
+    truth = np.full_like(t, 20_000.0)
+    rng = np.random.default_rng(3)
+    est = truth + 300.0 * rng.standard_normal(len(t))
+    sd = np.full_like(t, 300.0)
+    z = normalised_error_samples(t, est, sd, truth)
+    c = consistency(t, est, sd, truth)
+    assert len(z) == c.samples and np.mean(z * z) == pytest.approx(c.nees)
+
+
+def test_nees_ceiling_script_runs(tmp_path) -> None:
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    r = subprocess.run([sys.executable, str(root / "scripts" / "nees_ceiling.py"), "--runs", "2", "--draws", "2",
+                        "--max-lag", "5"], capture_output=True, text=True, cwd=root, timeout=300)
+    assert r.returncode == 0, r.stderr
+    rows = [line for line in r.stdout.splitlines() if line.startswith("| plant") or line.startswith("| point")]
+    assert len(rows) == 4  # two worlds x mass, slope
+    bad = subprocess.run([sys.executable, str(root / "scripts" / "nees_ceiling.py"), "--runs", "0"],
+                         capture_output=True, text=True, cwd=root, timeout=60)
+    assert bad.returncode == 2 and "--runs" in bad.stderr

@@ -264,6 +264,14 @@ class DFFRLSAEKFConfig:
 _FIELDS = frozenset(f.name for f in dataclasses.fields(DFFRLSAEKFConfig))
 
 
+def block_columns(name: str, torque_nm, speed_mps, accel_mps2) -> list[np.ndarray]:
+    """The three sensor columns of an ``update_block`` call as contiguous float arrays, checked (1-D, equal length)."""
+    cols = [np.ascontiguousarray(c, dtype=np.float64) for c in (torque_nm, speed_mps, accel_mps2)]
+    if not cols[0].ndim == cols[1].ndim == cols[2].ndim == 1 or not len(cols[0]) == len(cols[1]) == len(cols[2]):
+        raise ValueError(f"{name}: update_block: torque, speed and accel must be 1-D and of equal length")
+    return cols
+
+
 def batch_arrays(trace: Trace, t_prev_s: float | None, n_out: int
                  ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray], np.ndarray]:
     """What a compiled batch loop takes: the times, the steps, the torque / speed / accelerometer columns as
@@ -319,10 +327,7 @@ class DFFRLSAEKF(Estimator):
     def update_block(self, torque_nm, speed_mps, accel_mps2, dt_s, motor_speed_radps=None, gyro_radps=None,
                      accel_normal_mps2=None) -> Estimate:
         """The samples of a block through the compiled step in one call; the same state as :meth:`update` each."""
-        cols = [np.ascontiguousarray(c, dtype=np.float64) for c in (torque_nm, speed_mps, accel_mps2)]
-        if not cols[0].ndim == cols[1].ndim == cols[2].ndim == 1 or not len(cols[0]) == len(cols[1]) == len(cols[2]):
-            raise ValueError(f"{self.name}: update_block: torque, speed and accel must be 1-D and of equal length")
-        kern.steps(self.S, self.H, self.C, cols[0], cols[1], cols[2], float(dt_s))
+        kern.steps(self.S, self.H, self.C, *block_columns(self.name, torque_nm, speed_mps, accel_mps2), float(dt_s))
         return self.estimate
 
     @property

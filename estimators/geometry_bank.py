@@ -28,7 +28,7 @@ from uuom_core.vehicle import VehicleParams
 from . import dffrls_aekf_kernel as kern
 from . import geometry_bank_kernel as bk
 from .base import Estimate, EstimateSeries, Estimator
-from .dffrls_aekf import DFFRLSAEKF, DFFRLSAEKFConfig, batch_arrays
+from .dffrls_aekf import DFFRLSAEKF, DFFRLSAEKFConfig, batch_arrays, block_columns
 
 __all__ = ["DEFAULT_WINDOWS_M", "GeometryBank"]
 
@@ -89,6 +89,7 @@ class GeometryBank(Estimator):
             m.S, m.H, m.C = self._SS[i], self._HH[i], self._CC[i]
         self._rows = np.zeros((k, 9))
         self._out = np.zeros(bk.N_OUT_FIXED + k)
+        self._w = np.zeros(k)
         self._weight_keys = [f"weight_window_{w:g}m" for w in self.windows_m]
         self.reset()
 
@@ -105,14 +106,15 @@ class GeometryBank(Estimator):
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
         bk.bank_step(self._SS, self._HH, self._CC, float(torque_nm), float(speed_mps), float(accel_mps2),
-                     float(dt_s))
+                     float(dt_s), self._w)
         return self.estimate
 
     def update_block(self, torque_nm, speed_mps, accel_mps2, dt_s, motor_speed_radps=None, gyro_radps=None,
                      accel_normal_mps2=None) -> Estimate:
-        """The samples of a block through each member's compiled step; the same state as :meth:`update` each."""
-        for m in self.members:
-            m.update_block(torque_nm, speed_mps, accel_mps2, dt_s)
+        """The samples of a block through the compiled bank step in one call; the same state as :meth:`update` each
+        (sample by sample across the members: each sample's ambiguity gate needs all of them)."""
+        bk.bank_steps(self._SS, self._HH, self._CC, *block_columns(self.name, torque_nm, speed_mps, accel_mps2),
+                      float(dt_s), self._w)
         return self.estimate
 
     @property

@@ -12,7 +12,8 @@ import numpy as np
 from .dffrls_aekf_kernel import AMBIG, SCORE, TH_TRAIN, estimate, step
 from .numba_shim import njit
 
-__all__ = ["ambiguity", "bank_estimate", "evidence_weights", "bank_run", "bank_step", "bank_steps", "mix", "N_OUT_FIXED"]
+__all__ = ["ambiguity", "bank_estimate", "bank_run", "bank_step", "bank_steps", "evidence_weights", "mix",
+           "N_OUT_FIXED"]
 
 N_OUT_FIXED = 7
 """Entries of a bank output row before the weights: mass, slope, mass std, slope std, mu, mu std, nis."""
@@ -28,8 +29,8 @@ def bank_estimate(SS, CC, rows, out):
 
 @njit(cache=True)
 def evidence_weights(A, col, w, w0):
-    """``w[w0 + i] ∝ exp(−A[i, col])``, normalised (from the smallest score, so no overflow). Indices, not array
-    views: a view per sample cost 15 % of the batch speed."""
+    """``w[w0 + i] ∝ exp(−A[i, col])``, normalised (from the smallest score, so no overflow); the scores are a
+    column of ``A`` (the members' output rows or their states)."""
     k = A.shape[0]
     lo = A[0, col]
     for i in range(1, k):

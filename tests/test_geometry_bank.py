@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import estimators
+from estimators import dffrls_aekf_kernel as kern
 from estimators.dffrls_aekf import DFFRLSAEKF
 from estimators.geometry_bank import DEFAULT_WINDOWS_M, GeometryBank
-from estimators import dffrls_aekf_kernel as kern
 from estimators.geometry_bank_kernel import N_OUT_FIXED, ambiguity, mix
 from uuom_core.trace import Trace
 from uuom_gym.sim.protocol_runs import RunSpec, make_run
@@ -111,7 +111,8 @@ def test_ambiguity_is_the_evidence_weighted_spread_of_the_slopes() -> None:
     SS[:, kern.TH_TRAIN] = [0.01, 0.03]
     SS[:, kern.SCORE] = [0.0, math.log(3.0)]  # weights 0.75 / 0.25
     mean = 0.75 * 0.01 + 0.25 * 0.03
-    assert ambiguity(SS, np.empty(2)) == pytest.approx(math.sqrt(0.75 * (0.01 - mean) ** 2 + 0.25 * (0.03 - mean) ** 2))
+    spread = math.sqrt(0.75 * (0.01 - mean) ** 2 + 0.25 * (0.03 - mean) ** 2)
+    assert ambiguity(SS, np.empty(2)) == pytest.approx(spread)
     SS[1, kern.SCORE] = 800.0  # the evidence has chosen: no ambiguity, however far apart the members are
     assert ambiguity(SS, np.empty(2)) == pytest.approx(0.0, abs=1e-12)
 

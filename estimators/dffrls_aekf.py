@@ -97,6 +97,13 @@ class DFFRLSAEKFConfig:
         (A) Geometry bank only: no mass update while its members' slopes for gravity, weighted by their evidence,
         spread (standard deviation) by more (0.004 rad = 0.23°, chosen on plant tuning runs 1000-1015: median mass
         max error 6.7 → 5.3 %, 95th percentile unchanged). A single filter never sees an ambiguity.
+    max_early_evidence : float
+        (A) Geometry bank only: how far (in nats of the force-balance log-likelihood) the evidence gathered while
+        the slope windows still hold the start-up guess may set the members apart (1: weights up to 73 / 27; 0: that
+        evidence is not counted; inf: it counts fully). Later evidence is never capped. Chosen on plant tuning runs
+        1000-1099 (0 / 0.5 / 1 / 2 / inf: median slope RMSE 0.44 / 0.39 / 0.34 / 0.29 / 0.29°, 95th percentile
+        1.65 / 1.47 / 1.36 / 1.27 / 1.36°, mass max error median 9.6 / 9.0 / 9.1 / 9.6 / 10.1 %, 95th percentile
+        33.9 / 34.0 / 34.3 / 37.1 / 35.4 %).
     spread_length_m : float or None
         How far behind the sensors the spread gate looks (None: ``train_length_m``). The geometry bank gives all
         its members the longest window, so they stop updating at the same grade changes.
@@ -114,6 +121,7 @@ class DFFRLSAEKFConfig:
     adapt_r: bool = True
     max_slope_spread_rad: float = 0.025
     max_geometry_ambiguity_rad: float = 0.004
+    max_early_evidence: float = 1.0
     cutoff_hz: float = 1.0
     # slope layer
     speed_std_mps: float = 0.01
@@ -156,7 +164,7 @@ class DFFRLSAEKFConfig:
         non_negative = ("chain_length_m", "mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio",
                         "hook_mass_kg", "min_speed_mps", "min_accel_mps2", "offset_forgetting_ratio",
                         "accel_bias_std_mps2",
-                        "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after")
+                        "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after", "max_early_evidence")
         for name in positive + non_negative:
             x = getattr(self, name)
             if isinstance(x, bool) or not isinstance(x, (int, float)) or math.isnan(x) or (
@@ -256,6 +264,7 @@ class DFFRLSAEKFConfig:
         C[kern.EST_MU] = float(bool(self.estimate_mu))
         C[kern.MAX_SPREAD] = self.max_slope_spread_rad
         C[kern.MAX_AMBIG] = self.max_geometry_ambiguity_rad
+        C[kern.EARLY_CAP] = self.max_early_evidence
         C[kern.READY_VAR] = self.slope_ready_std_rad**2
         C[kern.Q_C] = 1e-12  # a tiny random walk: never fully rigid
         return C

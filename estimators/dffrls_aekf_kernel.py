@@ -32,12 +32,12 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     SWAY_H, MIN_SPEED, MIN_FORCE, SETTLE_S, T_MAX, T_RATE, T_BAND, V_MAX, V_RATE, V_BAND, F_MAX, F_RATE, F_BAND,
     RELOCK, GATES, R0, R_MIN, R_MAX, FADING, ADAPT_R, ACC_VAR, MODEL_ACC_VAR, GRADE_VAR_M, P0_TH, GATE2, MAX_SLOPE,
     USE_ACCEL, HIST_DS, N_HIST, R_M, DELTA, SIGMA, MASS_FORGET, P0_C, P0_CD, P0_D, EST_MU, MAX_SPREAD, READY_VAR,
-    Q_C, C0, MIN_ACC, OFF_FORGET, FUSED, P0_B, BIAS_VAR, CORR_N, N_BUF, MAX_AMBIG, N_C, V, TH, P11, P12, P22, R, K,
+    Q_C, C0, MIN_ACC, OFF_FORGET, FUSED, P0_B, BIAS_VAR, CORR_N, N_BUF, MAX_AMBIG, EARLY_CAP, N_C, V, TH, P11, P12, P22, R, K,
     BK, F_IN, F_OK, REJ,
     FORCE_IN, GT_LAST, GT_REJ, GV_LAST, GV_REJ, GF_LAST, GF_REJ, LF1, LF2, LF_OK, LV1, LV2, LV_OK, LQ1, LQ2, LQ_OK,
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
-    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, N_S, N_HIST_MAX,
+    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
@@ -327,17 +327,22 @@ def step(S, H, C, torque, speed, accel, dt):
     if not usable:
         return
     y = (F - C[M_ROT] * acc_f - C[M_RIGID] * (acc_f - a_load_f)) / C[M_REF]
-    if C[FUSED] == 0.0 and S[MOVED] != 0.0 and S[DIST] - S[DIST0] > C[N_BUF] * C[HIST_DS]:
+    if C[FUSED] == 0.0 and S[MOVED] != 0.0:
         # evidence for this estimator's slope geometry (estimators.geometry_bank): the Gaussian negative
         # log-likelihood of the force balance predicted before the update, counted once per ~CORR_N correlated
         # samples and capped per sample, so a fault cannot decide; also across the grade changes the mass update
-        # skips, since they are what tells a point mass from a long train; only once the history holds slopes
-        # measured on the way (before, a window member's history is the start-up guess, not a geometry)
+        # skips, since they are what tells a point mass from a long train. Kept apart while the history still
+        # holds the start-up guess (a window member's slope is then partly an assumption, not its geometry: the
+        # bank caps what that early evidence may decide)
         hs = a_load_f + g * sin_lp
         hc = g * cos_lp if C[OFF_FORGET] == 0.0 else g
         e_s = y - hs * S[MC] - hc * S[MD]
         s_s = max(S[RES_VAR], C[R_M])
-        S[SCORE] += 0.5 * (min(e_s * e_s / s_s, 25.0) + math.log(s_s)) / C[CORR_N]
+        nll = 0.5 * (min(e_s * e_s / s_s, 25.0) + math.log(s_s)) / C[CORR_N]
+        if S[DIST] - S[DIST0] > C[N_BUF] * C[HIST_DS]:
+            S[SCORE] += nll
+        else:
+            S[SCORE_EARLY] += nll
     if C[FUSED] == 0.0 and not S[SPREAD] < C[MAX_SPREAD]:
         return
     if C[FUSED] == 0.0 and S[AMBIG] > C[MAX_AMBIG]:

@@ -68,7 +68,8 @@ BIAS_VAR = 59
 CORR_N = 60
 N_BUF = 61  # history entries kept (>= N_HIST): the spread gate's reach
 MAX_AMBIG = 62  # the geometry bank's ambiguity gate (AMBIG above it: no mass update)
-N_C = 63
+EARLY_CAP = 63  # the geometry bank: most the early evidence (SCORE_EARLY) may tell the members apart
+N_C = 64
 # --- state S ------------------------------------------------------------------------------------------------------
 V = 0
 TH = 1
@@ -142,5 +143,6 @@ DIST0 = 68
 NIS = 69  # normalised innovation squared of the last accepted speed correction (held; 1 before the first)
 SCORE = 70  # accumulated negative log-likelihood of the force balance (the geometry bank's evidence)
 AMBIG = 71  # written by the geometry bank: how much its members disagree on the slope gravity acts on (rad)
-N_S = 72
+SCORE_EARLY = 72  # as SCORE, while the slope window still holds the start-up guess (the bank caps its weight)
+N_S = 73
 N_HIST_MAX = 512

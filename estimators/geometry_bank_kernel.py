@@ -9,10 +9,10 @@ import math
 
 import numpy as np
 
-from .dffrls_aekf_kernel import AMBIG, SCORE, TH_TRAIN, estimate, step
+from .dffrls_aekf_kernel import AMBIG, EARLY_CAP, SCORE, SCORE_EARLY, TH_TRAIN, estimate, step
 from .numba_shim import njit
 
-__all__ = ["ambiguity", "bank_estimate", "bank_run", "bank_step", "bank_steps", "evidence_weights", "mix",
+__all__ = ["ambiguity", "bank_estimate", "bank_run", "bank_step", "bank_steps", "member_score", "mix", "normalise_evidence",
            "N_OUT_FIXED"]
 
 N_OUT_FIXED = 7
@@ -24,20 +24,31 @@ def bank_estimate(SS, CC, rows, out):
     """Members' estimates into ``rows`` (k x 9), their mixture into ``out`` (:func:`mix`)."""
     for i in range(SS.shape[0]):
         estimate(SS[i], CC[i], rows[i])
+        rows[i, 8] = member_score(SS, CC, i)
     mix(rows, out)
 
 
 @njit(cache=True)
-def evidence_weights(A, col, w, w0):
-    """``w[w0 + i] ∝ exp(−A[i, col])``, normalised (from the smallest score, so no overflow); the scores are a
-    column of ``A`` (the members' output rows or their states)."""
-    k = A.shape[0]
-    lo = A[0, col]
+def member_score(SS, CC, i):
+    """Member ``i``'s evidence score: its score once its slope window held measured slopes only, plus its early
+    score (while the window held the start-up guess) above the lowest member's, that excess capped at
+    ``EARLY_CAP``: the early evidence may lean the bank, but only later evidence may decide it."""
+    lo = SS[0, SCORE_EARLY]
+    for j in range(1, SS.shape[0]):
+        lo = min(lo, SS[j, SCORE_EARLY])
+    return SS[i, SCORE] + min(SS[i, SCORE_EARLY] - lo, CC[i, EARLY_CAP])
+
+
+@njit(cache=True)
+def normalise_evidence(w, w0, k):
+    """In place: the scores ``w[w0:w0 + k]`` become the weights ``∝ exp(−score)``, normalised (from the smallest
+    score, so no overflow)."""
+    lo = w[w0]
     for i in range(1, k):
-        lo = min(lo, A[i, col])
+        lo = min(lo, w[w0 + i])
     wsum = 0.0
     for i in range(k):
-        w[w0 + i] = math.exp(lo - A[i, col])
+        w[w0 + i] = math.exp(lo - w[w0 + i])
         wsum += w[w0 + i]
     for i in range(k):
         w[w0 + i] /= wsum
@@ -48,7 +59,9 @@ def mix(rows, out):
     """The mixture of the members' output rows (k x 9, score in column 8) into ``out``: the fixed entries, then the
     k weights ``∝ exp(−score)``; each mean is weighted, each standard deviation includes the members' spread."""
     k = rows.shape[0]
-    evidence_weights(rows, 8, out, N_OUT_FIXED)
+    for i in range(k):
+        out[N_OUT_FIXED + i] = rows[i, 8]
+    normalise_evidence(out, N_OUT_FIXED, k)
     # mean and std (with the spread between members) of (mass, slope, mu); the NIS as a weighted mean
     for mean_j, std_j, o_mean, o_std in ((0, 2, 0, 2), (1, 3, 1, 3), (4, 5, 4, 5)):
         m = 0.0
@@ -67,11 +80,13 @@ def mix(rows, out):
 
 
 @njit(cache=True)
-def ambiguity(SS, w):
+def ambiguity(SS, CC, w):
     """The members' disagreement on the slope gravity acts on: the standard deviation of their ``TH_TRAIN`` under
     the evidence weights (0 once the evidence has chosen, or where the geometries agree); ``w``: scratch of k."""
     k = SS.shape[0]
-    evidence_weights(SS, SCORE, w, 0)
+    for i in range(k):
+        w[i] = member_score(SS, CC, i)
+    normalise_evidence(w, 0, k)
     m = 0.0
     for i in range(k):
         m += w[i] * SS[i, TH_TRAIN]
@@ -86,7 +101,7 @@ def ambiguity(SS, w):
 def bank_step(SS, HH, CC, torque, speed, accel, dt, w):
     """One sample through every member, each told the members' ambiguity of the sample before (``w``: scratch of
     k, allocated once by the caller)."""
-    amb = ambiguity(SS, w) if SS.shape[0] > 1 else 0.0
+    amb = ambiguity(SS, CC, w) if SS.shape[0] > 1 else 0.0
     for i in range(SS.shape[0]):
         SS[i, AMBIG] = amb
         step(SS[i], HH[i], CC[i], torque, speed, accel, dt)

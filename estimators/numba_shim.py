@@ -2,9 +2,21 @@
 
 numba is a dependency (``pyproject.toml``); the fallback keeps the package importable without it, and the kernels
 then run as plain Python (same results, much slower). :data:`HAVE_NUMBA` says which one is in use.
+
+**Stale caches.** numba's on-disk cache (``cache=True``) checks only the time stamp of the file that *defines* a
+function. The kernels call each other across files (the geometry bank's step inlines ``dffrls_aekf_kernel.step``)
+and read the array layout of ``dffrls_aekf_layout`` as compile-time constants, so an edit of one file (or a
+``git pull``) left the others' cached machine code running the old code, silently (seen: a changed kernel gave
+bit-identical results through the bank). On import, :func:`drop_stale_caches` therefore compares a hash of all
+kernel sources with the one stored beside the cache and, when it differs, removes the kernels' cache files, so
+numba compiles them again.
 """
 
 from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Iterable
 
 try:
     from numba import njit
@@ -16,4 +28,41 @@ except ImportError:  # pragma: no cover
 
 HAVE_NUMBA = njit.__module__.startswith("numba")
 
-__all__ = ["HAVE_NUMBA", "njit"]
+KERNEL_SOURCES: tuple[str, ...] = ("numba_shim.py", "dffrls_aekf_layout.py", "dffrls_aekf_kernel.py",
+                                   "fused_kernel.py", "geometry_bank_kernel.py", "mmae_kernel.py")
+"""The files whose compiled functions depend on one another (every file that uses :func:`njit`, and the layout)."""
+
+STAMP_NAME = "kernels.sha256"
+
+__all__ = ["HAVE_NUMBA", "KERNEL_SOURCES", "drop_stale_caches", "njit"]
+
+
+def drop_stale_caches(source_dir: Path, cache_dir: Path, sources: Iterable[str] = KERNEL_SOURCES) -> bool:
+    """Remove the kernels' numba cache files (``<module>.*.nbi`` / ``.nbc`` in ``cache_dir``) when the hash of
+    ``sources`` differs from the one stored there; store the new hash. Returns whether caches were dropped.
+    Never raises on a read-only or missing cache folder (numba then caches elsewhere or not at all)."""
+    names = list(sources)
+    digest = hashlib.sha256()
+    for name in names:
+        path = source_dir / name
+        digest.update(name.encode())
+        digest.update(path.read_bytes() if path.is_file() else b"")
+    new = digest.hexdigest()
+    stamp = cache_dir / STAMP_NAME
+    try:
+        if stamp.is_file() and stamp.read_text().strip() == new:
+            return False
+        cache_dir.mkdir(exist_ok=True)
+        for name in names:
+            for pattern in (f"{Path(name).stem}.*.nbi", f"{Path(name).stem}.*.nbc"):
+                for f in cache_dir.glob(pattern):
+                    f.unlink(missing_ok=True)
+        stamp.write_text(new + "\n")
+    except OSError:
+        return False
+    return True
+
+
+if HAVE_NUMBA:
+    _here = Path(__file__).resolve().parent
+    drop_stale_caches(_here, _here / "__pycache__")

@@ -32,6 +32,8 @@ VARIANTS: list[tuple[str, str, dict]] = [
     ("- geometry bank: the point slope fixed", "dffrls-aekf", {"train_length_m": 0.0}),
     ("- geometry bank: mass learnt while the geometry is ambiguous", "dffrls-aekf",
      {"max_geometry_ambiguity_rad": float("inf")}),
+    ("- geometry bank: evidence from the first window length travelled (not counted)", "dffrls-aekf",
+     {"max_early_evidence": 0.0}),
     ("- accelerometer drives the slope EKF (paper's torque/mass model)", "dffrls-aekf", {"use_accel": False}),
     ("- load pendulum in the regression (rigid load)", "dffrls-aekf", {"chain_length_m": 0.0}),
     ("- vector forgetting (paper's single lambda)", "dffrls-aekf", {"mass_forgetting_ratio": 1.0}),

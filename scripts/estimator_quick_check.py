@@ -13,7 +13,7 @@ Usage::
     python scripts/estimator_quick_check.py --runs 30 --configs \\
         '[["fused", "fused", {}], ["fused, true swing", "fused", {"chain_length_m": 2.5, "sway_damping_ratio": 0.08}]]'
 
-Prints one line per scenario and configuration (max |mass error| % after 10 s, slope RMSE ° against the
+Prints one line per scenario and configuration (``--per-run``: per run too) (max |mass error| % after 10 s, slope RMSE ° against the
 train-averaged slope), then per group (``tuning`` = plant runs 1000-1015, ``plant``, ``point``, ``pm-sc`` = the
 scenarios) the median / p90 / p95 / max of the mass error and the median / p95 of the slope RMSE.
 """
@@ -34,11 +34,13 @@ from estimators.registry import get_class
 from uuom_gym.sim.protocol_runs import RunSpec, make_run, protocol_runs
 
 DEFAULT_CONFIGS = [["dffrls-aekf", "dffrls-aekf", {}], ["fused", "fused", {}]]
-TUNING_RUNS = range(1000, 1016)
+TUNING_FIRST = 1000
+"""Plant tuning runs are seeds 1000, 1001, ...: never among the protocol's evaluation runs (seeds from 0)."""
 
 
-def _specs(n: int) -> list[tuple[str, RunSpec]]:
-    out = [("tuning", RunSpec("plant", f"plant-{i}", i, i, "plant")) for i in TUNING_RUNS]
+def _specs(n: int, n_tuning: int = 16) -> list[tuple[str, RunSpec]]:
+    out = [("tuning", RunSpec("plant", f"plant-{i}", i, i, "plant"))
+           for i in range(TUNING_FIRST, TUNING_FIRST + n_tuning)]
     out += [("plant", RunSpec("plant", f"plant-{i:03d}", i, i, "plant")) for i in range(n)]
     out += [("point", RunSpec("point", f"point-{i:03d}", i, i, "point")) for i in range(n)]
     out += [(f"pm-sc:{s.scenario}", s) for s in protocol_runs(0, 0, paper_seeds=1, fault_seeds=0) if s.world == "point"]
@@ -62,23 +64,29 @@ def _score(job: tuple[str, RunSpec, list[list[Any]]]) -> list[tuple[str, str, fl
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=30, help="random runs per world (0..runs-1)")
+    ap.add_argument("--tuning", type=int, default=16,
+                    help="plant tuning runs (seeds 1000..1000+N-1; the historical tuning set is the first 16)")
     ap.add_argument("--configs", type=json.loads, default=DEFAULT_CONFIGS,
                     help='JSON list of [label, estimator, {options}] (default: dffrls-aekf and fused)')
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--per-run", action="store_true", help="also one line per random and tuning run")
     args = ap.parse_args(argv)
     configs = args.configs
     if not isinstance(configs, list) or not all(isinstance(c, list) and len(c) == 3 for c in configs):
         ap.error("--configs must be a JSON list of [label, estimator, {options}]")
     for _, name, options in configs:
         get_class(name)(**options)  # an unknown estimator or option fails here, named, before any run
-    jobs = [(g, s, configs) for g, s in _specs(args.runs)]
+    jobs = [(g, s, configs) for g, s in _specs(args.runs, args.tuning)]
     with multiprocessing.Pool(max(1, args.workers)) as pool:
         rows = [r for rs in pool.map(_score, jobs, chunksize=1) for r in rs]
+    names = [s.name for _, s, _ in jobs for _ in configs]
     by_group: dict[tuple[str, str], list[tuple[float, float]]] = collections.defaultdict(list)
-    for group, label, mass, slope in rows:
+    for (group, label, mass, slope), name in zip(rows, names):
         if group.startswith("pm-sc:"):
             print(f"{group[6:]:24s} {label:28s} mass {mass:6.2f} %  slope {slope:5.2f} deg")
             group = "pm-sc"
+        elif args.per_run:
+            print(f"{group}:{name:17s} {label:28s} mass {mass:6.2f} %  slope {slope:5.2f} deg")
         by_group[(group, label)].append((mass, slope))
     print()
     for (group, label), v in sorted(by_group.items()):

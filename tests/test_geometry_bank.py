@@ -17,7 +17,7 @@ import estimators
 from estimators import dffrls_aekf_kernel as kern
 from estimators.dffrls_aekf import DFFRLSAEKF
 from estimators.geometry_bank import DEFAULT_WINDOWS_M, GeometryBank
-from estimators.geometry_bank_kernel import N_OUT_FIXED, ambiguity, mix
+from estimators.geometry_bank_kernel import N_OUT_FIXED, ambiguity, member_score, mix
 from uuom_core.trace import Trace
 from uuom_gym.sim.protocol_runs import RunSpec, make_run
 
@@ -112,9 +112,45 @@ def test_ambiguity_is_the_evidence_weighted_spread_of_the_slopes() -> None:
     SS[:, kern.SCORE] = [0.0, math.log(3.0)]  # weights 0.75 / 0.25
     mean = 0.75 * 0.01 + 0.25 * 0.03
     spread = math.sqrt(0.75 * (0.01 - mean) ** 2 + 0.25 * (0.03 - mean) ** 2)
-    assert ambiguity(SS, np.empty(2)) == pytest.approx(spread)
+    CC = np.zeros((2, kern.N_C))
+    assert ambiguity(SS, CC, np.empty(2)) == pytest.approx(spread)
     SS[1, kern.SCORE] = 800.0  # the evidence has chosen: no ambiguity, however far apart the members are
-    assert ambiguity(SS, np.empty(2)) == pytest.approx(0.0, abs=1e-12)
+    assert ambiguity(SS, CC, np.empty(2)) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_early_evidence_leans_the_bank_only_as_far_as_its_cap() -> None:
+    SS = np.zeros((2, kern.N_S))
+    CC = np.zeros((2, kern.N_C))
+    CC[:, kern.EARLY_CAP] = 1.0
+    SS[:, kern.SCORE_EARLY] = [3.0, 10.0]  # early evidence 7 nats for member 0: capped at 1
+    SS[:, kern.SCORE] = [5.0, 5.5]  # later evidence counts whole
+    assert member_score(SS, CC, 0) == pytest.approx(5.0)
+    assert member_score(SS, CC, 1) == pytest.approx(6.5)
+    CC[:, kern.EARLY_CAP] = 0.0  # not counted at all
+    assert member_score(SS, CC, 1) == pytest.approx(5.5)
+    CC[:, kern.EARLY_CAP] = math.inf  # counted whole
+    assert member_score(SS, CC, 1) == pytest.approx(12.5)
+
+
+def test_early_evidence_picks_the_point_mass_sooner() -> None:
+    # point-mass section 2 (grades vary from the start): with no early evidence the bank stays 50/50 until the
+    # train has travelled the 12 m window (~20 s) and reports the mean of a right and a lagging slope meanwhile
+    from uuom_gym.sim.point_mass import simulate_point_mass
+
+    tr = simulate_point_mass("pm-section2", seed=0)
+    t = tr["t_s"]
+    early = (t > 10.0) & (t < 18.0)
+    w_none = GeometryBank(max_early_evidence=0.0).run(tr).extras["weight_window_0m"]
+    w_cap = GeometryBank().run(tr).extras["weight_window_0m"]
+    w_all = GeometryBank(max_early_evidence=math.inf).run(tr).extras["weight_window_0m"]
+    assert np.all(np.abs(w_none[early] - 0.5) < 0.05)
+    cap = GeometryBank().config.max_early_evidence
+    assert np.max(w_cap[early]) > 0.7
+    assert np.all(w_cap[early] <= 1.0 / (1.0 + math.exp(-cap)) + 1e-9)  # leaning, not deciding
+    assert np.median(w_all[early]) > 0.99
+    _, slope_none = _errors(tr, GeometryBank(max_early_evidence=0.0).run(tr))
+    _, slope_cap = _errors(tr, GeometryBank().run(tr))
+    assert slope_cap < 0.8 * slope_none
 
 
 def test_no_mass_learnt_while_the_geometry_is_ambiguous() -> None:
@@ -136,9 +172,10 @@ def test_no_mass_learnt_while_the_geometry_is_ambiguous() -> None:
             held += 1
         changed += any(moved)
     assert held > 1000 and changed > 1000  # the gate closed for seconds, and the masses learnt elsewhere
-    # without the gate the window member learns the ramp's slope lag as mass
-    mass_gated, _ = _errors(tr, GeometryBank().run(tr))
-    mass_open, _ = _errors(tr, GeometryBank(max_geometry_ambiguity_rad=math.inf).run(tr))
+    # without the gate (and without the early evidence that leans the bank to the point mass before the window
+    # is measured) the window member learns the ramp's slope lag as mass
+    mass_gated, _ = _errors(tr, GeometryBank(max_early_evidence=0.0).run(tr))
+    mass_open, _ = _errors(tr, GeometryBank(max_early_evidence=0.0, max_geometry_ambiguity_rad=math.inf).run(tr))
     assert mass_gated < mass_open
 
 
@@ -151,6 +188,8 @@ def test_no_mass_learnt_while_the_geometry_is_ambiguous() -> None:
     ({"fused": True}, "fused"),
     ({"max_geometry_ambiguity_rad": -0.1}, "max_geometry_ambiguity_rad"),
     ({"max_geometry_ambiguity_rad": math.nan}, "max_geometry_ambiguity_rad"),
+    ({"max_early_evidence": -1.0}, "max_early_evidence"),
+    ({"max_early_evidence": math.nan}, "max_early_evidence"),
     ({"no_such_option": 1}, "unknown option"),
 ])
 def test_bad_options_are_named(options: dict, match: str) -> None:

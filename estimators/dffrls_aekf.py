@@ -31,7 +31,7 @@ a fixed geometry assumption: on a world where gravity acts at one point it lags 
 
 with ``F = T/r`` and ``a = dv/dt`` through the same second-order low-pass (phase lags cancel), θ̄ the slope under
 the train from the slope layer, ``a_L`` the acceleration of the load swinging on its chains (a pendulum forced by
-dv/dt, ``chain_length_m``; 0 = rigid). ``o`` (offset mode, ``offset_forgetting_ratio > 0``, default) is the
+dv/dt, ``chain_length_m``, by default the vehicle file's; 0 = rigid). ``o`` (offset mode, ``offset_forgetting_ratio > 0``, default) is the
 running resistance ``μ c cos θ`` plus whatever constant the upper layer gets wrong (accelerometer bias, slope
 geometry), so a wrong μ in the vehicle file does not become a mass error; ``offset_forgetting_ratio=0`` gives the
 ``g cos θ̄`` regressor and ``o = μ c`` (μ proper). The dynamic forgetting factor λ_k = δ + (1−δ) exp(−σ|e_k|)
@@ -63,6 +63,7 @@ from uuom_core.vehicle import G_MPS2, VehicleParams
 from . import dffrls_aekf_kernel as kern
 from .base import Estimate, EstimateSeries, Estimator, first_step_dts
 from .filters import MAX_STEP_S
+from .regression_front_end import swing_geometry
 
 __all__ = ["DFFRLSAEKF", "DFFRLSAEKFConfig"]
 
@@ -83,8 +84,11 @@ class DFFRLSAEKFConfig:
     train_length_m : float or None
         (A) Length over which the slope is averaged for gravity (None: the vehicle's length; 0: point mass;
         default 12 m, chosen on plant runs, see the module docstring).
-    chain_length_m : float
-        (A) Chain length of the swinging load (0: rigid load).
+    chain_length_m : float or None
+        (A) Chain length of the swinging load (0: rigid load; None: the vehicle file's ``chain_length_m``, 2 m by
+        default).
+    hook_mass_kg : float or None
+        Hook block that always hangs on the chains (part of the empty mass; None: the vehicle file's, 300 kg).
     mass_forgetting_ratio : float
         (A) Vector forgetting ratio ``r`` (1: the paper's single dynamic λ on the parameters).
     gates : bool
@@ -115,7 +119,7 @@ class DFFRLSAEKFConfig:
     estimate_mu: bool = True
     train_length_m: float | None = 12.0
     spread_length_m: float | None = None
-    chain_length_m: float = 2.0
+    chain_length_m: float | None = None
     mass_forgetting_ratio: float = 0.005
     gates: bool = True
     adapt_r: bool = True
@@ -142,7 +146,7 @@ class DFFRLSAEKFConfig:
     mu_prior_std: float = 0.05
     mu_max: float = 0.1
     sway_damping_ratio: float = 0.05
-    hook_mass_kg: float = 300.0
+    hook_mass_kg: float | None = None
     min_speed_mps: float = 0.05
     min_accel_mps2: float = 0.05
     offset_forgetting_ratio: float = 1.0
@@ -161,8 +165,7 @@ class DFFRLSAEKFConfig:
                     "gate_sigma", "history_step_m", "sigma", "residual_std_mps2", "mu_prior_std", "mu_max",
                     "slope_ready_std_rad", "gap_s", "dt_nominal_s", "max_slope_spread_rad",
                     "max_geometry_ambiguity_rad")
-        non_negative = ("chain_length_m", "mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio",
-                        "hook_mass_kg", "min_speed_mps", "min_accel_mps2", "offset_forgetting_ratio",
+        non_negative = ("mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio", "min_speed_mps", "min_accel_mps2", "offset_forgetting_ratio",
                         "accel_bias_std_mps2",
                         "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after", "max_early_evidence")
         for name in positive + non_negative:
@@ -186,8 +189,7 @@ class DFFRLSAEKFConfig:
         if not (v.empty_mass_kg <= prior <= v.max_mass_kg):
             raise ValueError(f"dffrls-aekf: prior_mass_kg must lie in [{v.empty_mass_kg}, {v.max_mass_kg}], "
                              f"got {self.prior_mass_kg!r}")
-        if not (0.0 <= self.hook_mass_kg <= v.empty_mass_kg):
-            raise ValueError(f"dffrls-aekf: hook_mass_kg must be in [0, empty_mass_kg], got {self.hook_mass_kg!r}")
+        chain, hook = swing_geometry(v, self.chain_length_m, self.hook_mass_kg, "dffrls-aekf: ")
         length = v.length_m if self.train_length_m is None else float(self.train_length_m)
         if not (0.0 <= length < math.inf):
             raise ValueError(f"dffrls-aekf: train_length_m must be a finite number >= 0, got {self.train_length_m!r}")
@@ -209,7 +211,7 @@ class DFFRLSAEKFConfig:
         C[kern.RADIUS] = r
         C[kern.M_ROT] = v.rotating_mass_kg
         C[kern.M_REF] = m_ref
-        C[kern.M_RIGID] = v.empty_mass_kg - self.hook_mass_kg
+        C[kern.M_RIGID] = v.empty_mass_kg - hook
         C[kern.C_MIN] = v.empty_mass_kg / m_ref
         C[kern.C_MAX] = v.max_mass_kg / m_ref
         C[kern.C0] = c0
@@ -217,9 +219,9 @@ class DFFRLSAEKFConfig:
         C[kern.MU_MAX] = self.mu_max
         C[kern.CUT_HZ] = self.cutoff_hz
         C[kern.FAST_HZ] = 5.0  # speed for the pendulum's forcing: well above the swing (0.35 Hz at 2 m)
-        C[kern.CHAIN_L] = self.chain_length_m
-        C[kern.SWAY_DAMP] = 2.0 * self.sway_damping_ratio * math.sqrt(G_MPS2 * self.chain_length_m)
-        C[kern.SWAY_H] = 0.5 * math.sqrt(self.chain_length_m / G_MPS2) if self.chain_length_m > 0 else 1.0
+        C[kern.CHAIN_L] = chain
+        C[kern.SWAY_DAMP] = 2.0 * self.sway_damping_ratio * math.sqrt(G_MPS2 * chain)
+        C[kern.SWAY_H] = 0.5 * math.sqrt(chain / G_MPS2) if chain > 0 else 1.0
         C[kern.MIN_SPEED] = self.min_speed_mps
         C[kern.MIN_ACC] = self.min_accel_mps2
         C[kern.OFF_FORGET] = self.offset_forgetting_ratio

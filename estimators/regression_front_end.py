@@ -10,7 +10,21 @@ from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .filters import MAX_STEP_S, LowPass2, SpikeGate
 
-__all__ = ["RegressionFrontEnd"]
+__all__ = ["RegressionFrontEnd", "swing_geometry"]
+
+
+def swing_geometry(v: VehicleParams, chain_length_m: float | None, hook_mass_kg: float | None,
+                   who: str = "") -> tuple[float, float]:
+    """The load swing an estimator models: ``(chain length, hook mass)``, each the estimator's option or, when that
+    is None, the vehicle file's (validated; ``who`` prefixes the error)."""
+    chain = v.chain_length_m if chain_length_m is None else chain_length_m
+    hook = v.hook_mass_kg if hook_mass_kg is None else hook_mass_kg
+    if isinstance(chain, bool) or not isinstance(chain, (int, float)) or not (0.0 <= chain < math.inf):
+        raise ValueError(f"{who}chain_length_m must be a finite number >= 0 (0: no load-swing model), "
+                         f"got {chain_length_m!r}")
+    if isinstance(hook, bool) or not isinstance(hook, (int, float)) or not (0.0 <= hook <= v.empty_mass_kg):
+        raise ValueError(f"{who}hook_mass_kg must be in [0, empty_mass_kg], got {hook_mass_kg!r}")
+    return float(chain), float(hook)
 
 
 class RegressionFrontEnd:

@@ -24,7 +24,7 @@ Choices where the paper is silent or wrong (spec §5.1):
   ``min_speed_mps``), when traction is below ``min_traction_fraction`` of the maximum (braking or coasting: the
   unknown brake force is not in the model) or with a missing torque/speed sample. Forgetting never inflates a
   parameter's variance above its prior variance (bounded covariance).
-- **Swinging load.** The payload hangs on chains (``chain_length_m``, default 2 m, the plant's): after every
+- **Swinging load.** The payload hangs on chains (``chain_length_m``, by default the vehicle file's: 2 m, the plant's): after every
   change of acceleration it swings, and its acceleration differs from the measured dv/dt of the drive section
   by as much as the acceleration itself for seconds — exactly when the regression has its only excitation (the
   start). The front end simulates the pendulum forced by dv/dt and the regression is written for the load's
@@ -51,7 +51,7 @@ from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator, reference_and_prior_mass
 from .filters import capped_dt, repair_pd_2x2
-from .regression_front_end import RegressionFrontEnd
+from .regression_front_end import RegressionFrontEnd, swing_geometry
 
 __all__ = ["RegressionFrontEnd", "RLSMassEstimator", "FFRLSMassEstimator", "DFFRLSMassEstimator"]
 
@@ -74,9 +74,9 @@ class _RLSMassBase(Estimator):
         prior_slope_std_rad: float = 0.1,
         running_resistance: float | None = None,
         residual_std_mps2: float = 0.3,
-        chain_length_m: float = 2.0,
+        chain_length_m: float | None = None,
         sway_damping_ratio: float = 0.05,
-        hook_mass_kg: float = 300.0,
+        hook_mass_kg: float | None = None,
         min_accel_mps2: float = 0.0,
         **options: Any,
     ) -> None:
@@ -106,8 +106,7 @@ class _RLSMassBase(Estimator):
         self.phi2 = -G_MPS2 * math.sqrt(1.0 + self.mu * self.mu)
         self.p1_min = self.m_ref / self.mass_max
         self.p1_max = self.m_ref / self.mass_min
-        if not (0.0 <= hook_mass_kg <= v.empty_mass_kg):
-            raise ValueError(f"hook_mass_kg must be in [0, empty_mass_kg], got {hook_mass_kg!r}")
+        chain_length_m, hook_mass_kg = swing_geometry(v, chain_length_m, hook_mass_kg)
         # the part of the train that moves with the drive section (all but the hook block and the payload)
         self.rigid_mass = v.empty_mass_kg - float(hook_mass_kg)
         self.front = RegressionFrontEnd(v, cutoff_hz, min_speed_mps, min_traction_fraction, chain_length_m,

@@ -50,7 +50,7 @@ from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator, reference_and_prior_mass
 from .filters import LowPass2, SpikeGate, capped_dt, check_positive, kalman_update_2x2_h1, repair_pd_2x2
-from .regression_front_end import RegressionFrontEnd
+from .regression_front_end import RegressionFrontEnd, swing_geometry
 
 __all__ = ["SpecificForceKF"]
 
@@ -84,7 +84,7 @@ class SpecificForceKF(Estimator):
     history_step_m : float
         Spacing of the slope history along the distance travelled.
     chain_length_m, sway_damping_ratio, hook_mass_kg : float
-        The load hanging on chains, simulated as a pendulum by the regression front end
+        The load hanging on chains (chain and hook: None = the vehicle file's), simulated as a pendulum by the regression front end
         (:class:`~estimators.rls.RegressionFrontEnd`); the regression uses the load's acceleration for the
         swinging mass ``M − (empty mass − hook_mass_kg)``. ``chain_length_m=0``: a rigid point mass.
     max_slope_spread_rad : float
@@ -102,8 +102,8 @@ class SpecificForceKF(Estimator):
                  mu_prior_std: float = 0.01, residual_std_mps2: float = 0.3, gate_sigma: float = 6.0,
                  prior_mass_kg: float | None = None, front_mass_kg: float | None = None,
                  rear_offset_m: float | None = None, history_step_m: float = 0.25,
-                 max_slope_spread_rad: float = 0.025, chain_length_m: float = 2.0,
-                 sway_damping_ratio: float = 0.05, hook_mass_kg: float = 300.0, **options: Any) -> None:
+                 max_slope_spread_rad: float = 0.025, chain_length_m: float | None = None,
+                 sway_damping_ratio: float = 0.05, hook_mass_kg: float | None = None, **options: Any) -> None:
         super().__init__(vehicle, **options)
         check_positive(speed_std_mps=speed_std_mps, accel_std_mps2=accel_std_mps2,
                        grade_rate_std_rps=grade_rate_std_rps, cutoff_hz=cutoff_hz, mu_prior_std=mu_prior_std,
@@ -140,9 +140,8 @@ class SpecificForceKF(Estimator):
         if not max_slope_spread_rad > 0:
             raise ValueError(f"max_slope_spread_rad must be > 0, got {max_slope_spread_rad!r}")
         self.max_spread = float(max_slope_spread_rad)
-        if not (0.0 <= hook_mass_kg <= v.empty_mass_kg):
-            raise ValueError(f"hook_mass_kg must be in [0, empty_mass_kg], got {hook_mass_kg!r}")
-        self.rigid_mass = v.empty_mass_kg - float(hook_mass_kg)
+        chain_length_m, hook_mass_kg = swing_geometry(v, chain_length_m, hook_mass_kg)
+        self.rigid_mass = v.empty_mass_kg - hook_mass_kg
         self.front = RegressionFrontEnd(v, cutoff_hz, chain_length_m=chain_length_m,
                                         sway_damping_ratio=sway_damping_ratio)
         self.lp_sin = LowPass2(cutoff_hz)

@@ -7,7 +7,8 @@ differs in the force balance, which here fuses all on-board signals in one regre
 
     (T/r − m_rot a − M_rigid (a − a_L)) / M_ref = c (a_L + g sin θ_win) + o g + β g (sin θ_s − sin θ_win)
 
-- ``c = M / M_ref``: the mass (updated only from accelerations; at constant speed it is a considered parameter);
+- ``c = M / M_ref``: the mass (updated only from accelerations, and not while the blend α is still too uncertain
+  for the slope gravity acts on, ``max_geometry_ambiguity_rad``; otherwise it is a considered parameter);
 - ``o``: the offset ``c (μ cos θ − b/g)`` of the running resistance and the accelerometer bias ``b``, forgotten 20x
   slower than the paper's dynamic factor asks (``offset_forgetting_ratio=0.05``), so a vehicle file whose μ is wrong
   does not become a mass error and a grade change is explained by α rather than by the offset;
@@ -40,7 +41,8 @@ from .dffrls_aekf import DFFRLSAEKF, DFFRLSAEKFConfig
 
 __all__ = ["FusedObserver", "FUSED_DEFAULTS"]
 
-FUSED_DEFAULTS = DFFRLSAEKFConfig(fused=True, offset_forgetting_ratio=0.05, train_length_m=14.0)
+FUSED_DEFAULTS = DFFRLSAEKFConfig(fused=True, offset_forgetting_ratio=0.05, train_length_m=14.0,
+                                  max_geometry_ambiguity_rad=0.002)
 """The ``fused`` settings: ``dffrls-aekf``'s with a 14 m window and the learned blend, and the offset forgotten 20x
 slower than the dynamic factor asks (so a grade change is explained by the blend, not soaked up by the offset). Chosen on
 plant runs 1000-1015 among offset ratios 0.01-1 and windows 12 / 14 / 18.1 m (12 m: median slope 0.54° but 90th

@@ -7,7 +7,7 @@ import math
 
 from uuom_core.vehicle import G_MPS2
 
-from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MB, MC, MD, MIN_ACC, MU_MAX,
+from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MAX_AMBIG, MB, MC, MD, MIN_ACC, MU_MAX,
                                  N_MASS, OFF_FORGET, P0_B, P0_C, P0_D, PB, PC, PCB, PCD, PD, PDB, Q_C, R_M, RES_VAR,
                                  SIGMA)
 from .numba_shim import njit
@@ -22,8 +22,8 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
 
         y = c (a_load + g sin th_win) + o g + beta g (sin th_loc - sin th_win)
 
-    Vector forgetting (c and beta: constants of a run; o: the dynamic lambda), c only from accelerations (Schmidt
-    update otherwise), covariance bounded by the prior and repaired to symmetric PD."""
+    Vector forgetting (c and beta: constants of a run; o: the dynamic lambda), c only from accelerations and while
+    the blend leaves the slope for gravity certain enough (Schmidt update otherwise), covariance bounded by the prior and repaired to symmetric PD."""
     g = G_MPS2
     h1 = a_l + g * sin_win
     h2 = g
@@ -56,7 +56,10 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
     s_m = C[R_M] + h1 * q1 + h2 * q2 + h3 * q3
     if use_rate and e * e > 100.0 * s_m:
         return
-    consider = abs(a_l) < C[MIN_ACC]
+    # c only from accelerations, and not while the blend is too uncertain for the slope gravity acts on: std(alpha)
+    # |sin th_loc - sin th_win| above MAX_AMBIG, the fused form of the geometry bank's ambiguity gate (a c learnt
+    # then would absorb the blend's error)
+    consider = abs(a_l) < C[MIN_ACC] or math.sqrt(p33) / c * abs(sin_loc - sin_win) > C[MAX_AMBIG]
     if not consider:
         c += q1 / s_m * e
         p11 -= q1 * q1 / s_m

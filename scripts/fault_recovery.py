@@ -18,9 +18,8 @@ import math
 import numpy as np
 
 import estimators
-from estimators.fault_injection import FAULTS, inject, run_outputs, seven_channel_rows
+from estimators.fault_injection import FAULTS, RECOVERY_OPTIONS, inject, run_outputs, seven_channel_rows
 
-OPTIONS = {"mmae": {"rear_offset_m": 0.0}}
 SCALE = {"mass": (1.0, "kg"), "slope": (math.degrees(1.0), "deg"), "slip_ratio": (1.0, ""),
          "drive_radius_m": (1e3, "mm")}
 
@@ -35,7 +34,7 @@ def main() -> None:
     print("| estimator | output | " + " | ".join(FAULTS) + " |")
     print("| --- | --- | " + " | ".join("---" for _ in FAULTS) + " |")
     for name in args.estimators:
-        opts = OPTIONS.get(name, {})
+        opts = RECOVERY_OPTIONS.get(name, {})
         clean = run_outputs(name, rows, **opts)
         diffs = {k: [] for k in clean}
         for kind in FAULTS:

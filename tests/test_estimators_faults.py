@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import estimators
-from estimators.fault_injection import FAULTS, inject, run_outputs, seven_channel_rows
+from estimators.fault_injection import FAULTS, RECOVERY_OPTIONS, inject, run_outputs, seven_channel_rows
 
 DT = 0.005
 FAULT = slice(int(10.0 / DT), int(13.0 / DT))
@@ -28,13 +28,7 @@ SCORED = slice(int(25.0 / DT), None)
 MASS_KG = 26_000.0
 BOUND = {"mass": 0.02 * MASS_KG, "slope": math.radians(0.15), "slip_ratio": 0.01, "drive_radius_m": 5e-4}
 
-# The trace is a point mass; mmae's default models the project plant's 18 m train (rear section 9 m behind), which
-# on a point-mass trace is the wrong model (clean mass error 2.8 t instead of 0.2 t, measured) and makes it
-# ill-conditioned. Configured for the world the data come from, as tests/test_mmae.py does.
-# dffrls-aekf likewise: its default load pendulum is the wrong model of this rigid load (clean mass at the 16 t clamp
-# for a 26 t train), and its geometry bank then weighs evidence from a broken force balance (measured: it picked the
-# 12 m window for this point mass, and a 3 s bias moved that weight); with the rigid load it picks the point mass.
-OPTIONS: dict[str, dict[str, float]] = {"mmae": {"rear_offset_m": 0.0}, "dffrls-aekf": {"chain_length_m": 0.0}}
+OPTIONS = RECOVERY_OPTIONS  # the options for this trace's world (a rigid point mass), and why: see its docstring
 
 _OTHERS = "estimator owned by the estimators helper (issue 10); measured and reported in docs/robustness.md"
 # (estimator, fault) -> reason: recovery failures measured in estimators this test's author does not own
@@ -45,8 +39,7 @@ KNOWN_FAILURES: dict[tuple[str, str], str] = {
     ("ekf", "bias"): "mass 537 kg from the clean run 12-27 s after the bias (bound 520); " + _OTHERS,
     ("rls", "bias"): "no forgetting: slope 0.30 deg from the clean run (bound 0.15); " + _OTHERS,
     ("sf-kf", "bias"): "mass 1443 kg from the clean run (bound 520); " + _OTHERS,
-    ("fused", "dropout"): "mass 3.5 t from the clean run at commit 8825c88 (bound 520 kg); " + _OTHERS,
-    ("fused", "bias"): "mass 2.3 t, slope 0.33 deg from the clean run at commit 8825c88; " + _OTHERS,
+    ("fused", "bias"): "mass 1.6 t from the clean run (session 10; 2.3 t at commit 8825c88); " + _OTHERS,
 }
 
 

@@ -31,10 +31,10 @@ a fixed geometry assumption: on a world where gravity acts at one point it lags 
 
 with ``F = T/r`` and ``a = dv/dt`` through the same second-order low-pass (phase lags cancel), θ̄ the slope under
 the train from the slope layer, ``a_L`` the acceleration of the load swinging on its chains (a pendulum forced by
-dv/dt, ``chain_length_m``, by default the vehicle file's; 0 = rigid). ``o`` (offset mode, ``offset_forgetting_ratio > 0``, default) is the
-running resistance ``μ c cos θ`` plus whatever constant the upper layer gets wrong (accelerometer bias, slope
-geometry), so a wrong μ in the vehicle file does not become a mass error; ``offset_forgetting_ratio=0`` gives the
-``g cos θ̄`` regressor and ``o = μ c`` (μ proper). The dynamic forgetting factor λ_k = δ + (1−δ) exp(−σ|e_k|)
+dv/dt, ``chain_length_m``, by default the vehicle file's; 0 = rigid). ``o`` (offset mode,
+``offset_forgetting_ratio > 0``, default) is the running resistance ``μ c cos θ`` plus whatever constant the upper
+layer gets wrong (accelerometer bias, slope geometry), so a wrong μ in the vehicle file does not become a mass error;
+``offset_forgetting_ratio=0`` gives the ``g cos θ̄`` regressor and ``o = μ c`` (μ proper). The dynamic forgetting factor λ_k = δ + (1−δ) exp(−σ|e_k|)
 (paper eq. 19, λ from the current residual) is applied per parameter, ``1 − r (1 − λ_k)`` with
 ``r = mass_forgetting_ratio`` (0.005) for c and ``offset_forgetting_ratio`` (1) for o, bounded by the prior
 variance. The mass is corrected only from |a_L| ≥ ``min_accel_mps2`` (0.05 m/s²; Schmidt update otherwise: at
@@ -168,8 +168,8 @@ class DFFRLSAEKFConfig:
                     "gate_sigma", "history_step_m", "sigma", "residual_std_mps2", "mu_prior_std", "mu_max",
                     "slope_ready_std_rad", "gap_s", "dt_nominal_s", "max_slope_spread_rad",
                     "max_geometry_ambiguity_rad")
-        non_negative = ("mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio", "min_speed_mps", "min_accel_mps2", "offset_forgetting_ratio",
-                        "accel_bias_std_mps2",
+        non_negative = ("mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio", "min_speed_mps",
+                        "min_accel_mps2", "offset_forgetting_ratio", "accel_bias_std_mps2",
                         "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after", "max_early_evidence")
         for name in positive + non_negative:
             x = getattr(self, name)

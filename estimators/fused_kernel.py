@@ -23,7 +23,8 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
         y = c (a_load + g sin th_win) + o g + beta g (sin th_loc - sin th_win)
 
     Vector forgetting (c and beta: constants of a run; o: the dynamic lambda), c only from accelerations and while
-    the blend leaves the slope for gravity certain enough (Schmidt update otherwise), covariance bounded by the prior and repaired to symmetric PD."""
+    the blend leaves the slope for gravity certain enough (Schmidt update otherwise), covariance bounded by the
+    prior and repaired to symmetric PD."""
     g = G_MPS2
     h1 = a_l + g * sin_win
     h2 = g

@@ -12,8 +12,8 @@ import numpy as np
 from .dffrls_aekf_kernel import AMBIG, EARLY_CAP, SCORE, SCORE_EARLY, TH_TRAIN, estimate, step
 from .numba_shim import njit
 
-__all__ = ["ambiguity", "bank_estimate", "bank_run", "bank_step", "bank_steps", "member_score", "mix", "normalise_evidence",
-           "N_OUT_FIXED"]
+__all__ = ["ambiguity", "bank_estimate", "bank_run", "bank_step", "bank_steps", "member_score", "mix",
+           "normalise_evidence", "N_OUT_FIXED"]
 
 N_OUT_FIXED = 7
 """Entries of a bank output row before the weights: mass, slope, mass std, slope std, mu, mu std, nis."""

@@ -24,10 +24,10 @@ Choices where the paper is silent or wrong (spec §5.1):
   ``min_speed_mps``), when traction is below ``min_traction_fraction`` of the maximum (braking or coasting: the
   unknown brake force is not in the model) or with a missing torque/speed sample. Forgetting never inflates a
   parameter's variance above its prior variance (bounded covariance).
-- **Swinging load.** The payload hangs on chains (``chain_length_m``, by default the vehicle file's: 2 m, the plant's): after every
-  change of acceleration it swings, and its acceleration differs from the measured dv/dt of the drive section
-  by as much as the acceleration itself for seconds — exactly when the regression has its only excitation (the
-  start). The front end simulates the pendulum forced by dv/dt and the regression is written for the load's
+- **Swinging load.** The payload hangs on chains (``chain_length_m``, by default the vehicle file's: 2 m, the
+  plant's): after every change of acceleration it swings, and its acceleration differs from the measured dv/dt of
+  the drive section by as much as the acceleration itself for seconds — exactly when the regression has its only
+  excitation (the start). The front end simulates the pendulum forced by dv/dt and the regression is written for the load's
   acceleration ``a_L = −g·sway − damping``:  ``T/r − m_rot a − M_rigid (a − a_L) = M a_L + gravity + resistance``
   (``M_rigid`` = empty mass − ``hook_mass_kg``). Without it ``dffrls-aekf`` had a 30 % mean mass error in the
   environment's episodes, worse than the fixed prior. ``chain_length_m=0`` is the paper's point mass.

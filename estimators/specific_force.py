@@ -84,9 +84,10 @@ class SpecificForceKF(Estimator):
     history_step_m : float
         Spacing of the slope history along the distance travelled.
     chain_length_m, sway_damping_ratio, hook_mass_kg : float
-        The load hanging on chains (chain and hook: None = the vehicle file's), simulated as a pendulum by the regression front end
-        (:class:`~estimators.rls.RegressionFrontEnd`); the regression uses the load's acceleration for the
-        swinging mass ``M − (empty mass − hook_mass_kg)``. ``chain_length_m=0``: a rigid point mass.
+        The load hanging on chains (chain and hook: None = the vehicle file's), simulated as a pendulum by the
+        regression front end (:class:`~estimators.rls.RegressionFrontEnd`); the regression uses the load's
+        acceleration for the swinging mass ``M − (empty mass − hook_mass_kg)``. ``chain_length_m=0``: a rigid point
+        mass.
     max_slope_spread_rad : float
         No mass update while the slope at the sensors and ``rear_offset_m`` behind differ by more than this
         (default 0.025 rad ≈ 1.4°): in grade transitions the two-point mass distribution is least exact, and a

@@ -13,8 +13,9 @@ Usage::
     python scripts/estimator_quick_check.py --runs 30 --configs \\
         '[["fused", "fused", {}], ["fused, true swing", "fused", {"chain_length_m": 2.5, "sway_damping_ratio": 0.08}]]'
 
-Prints one line per scenario and configuration (``--per-run``: per run too) (max |mass error| % after 10 s, slope RMSE ° against the
-train-averaged slope), then per group (``tuning`` = plant runs 1000-1015, ``plant``, ``point``, ``pm-sc`` = the
+Prints one line per scenario and configuration (``--per-run``: per run too; max |mass error| % after 10 s, slope
+RMSE ° against the train-averaged slope), then per group (``tuning`` = plant runs 1000-1015 (``--tuning N``: the
+first N from 1000), ``plant``, ``point``, ``pm-sc`` = the
 scenarios) the median / p90 / p95 / max of the mass error and the median / p95 of the slope RMSE.
 """
 

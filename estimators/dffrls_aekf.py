@@ -34,7 +34,8 @@ the train from the slope layer, ``a_L`` the acceleration of the load swinging on
 dv/dt, ``chain_length_m``, by default the vehicle file's; 0 = rigid). ``o`` (offset mode,
 ``offset_forgetting_ratio > 0``, default) is the running resistance ``μ c cos θ`` plus whatever constant the upper
 layer gets wrong (accelerometer bias, slope geometry), so a wrong μ in the vehicle file does not become a mass error;
-``offset_forgetting_ratio=0`` gives the ``g cos θ̄`` regressor and ``o = μ c`` (μ proper). The dynamic forgetting factor λ_k = δ + (1−δ) exp(−σ|e_k|)
+``offset_forgetting_ratio=0`` gives the ``g cos θ̄`` regressor and ``o = μ c`` (μ proper). The dynamic forgetting
+factor λ_k = δ + (1−δ) exp(−σ|e_k|)
 (paper eq. 19, λ from the current residual) is applied per parameter, ``1 − r (1 − λ_k)`` with
 ``r = mass_forgetting_ratio`` (0.005) for c and ``offset_forgetting_ratio`` (1) for o, bounded by the prior
 variance. The mass is corrected only from |a_L| ≥ ``min_accel_mps2`` (0.05 m/s²; Schmidt update otherwise: at

@@ -28,7 +28,8 @@ Choices where the paper is silent or wrong (spec §5.1):
   plant's): after every change of acceleration it swings, and its acceleration differs from the measured dv/dt of
   the drive section by as much as the acceleration itself for seconds — exactly when the regression has its only
   excitation (the start). The front end simulates the pendulum forced by dv/dt and the regression is written for
-  the load's acceleration ``a_L = −g·sway − damping``:  ``T/r − m_rot a − M_rigid (a − a_L) = M a_L + gravity + resistance``
+  the load's acceleration ``a_L = −g·sway − damping``:
+  ``T/r − m_rot a − M_rigid (a − a_L) = M a_L + gravity + resistance``
   (``M_rigid`` = empty mass − ``hook_mass_kg``). Without it ``dffrls-aekf`` had a 30 % mean mass error in the
   environment's episodes, worse than the fixed prior. ``chain_length_m=0`` is the paper's point mass.
 - **Mass only from accelerations** (``min_accel_mps2``, default 0.05 m/s² for ``dffrls``, 0 for the

@@ -103,11 +103,8 @@ class DFFRLSAEKFConfig:
         spread (standard deviation) by more (0.004 rad = 0.23°, chosen on plant tuning runs 1000-1015: median mass
         max error 6.7 → 5.3 %, 95th percentile unchanged). A single filter never sees an ambiguity. ``fused``: no mass
         update while its learned blend leaves the slope for gravity that uncertain, ``std(α) |sin θ_s − sin θ_win|``
-        (its default 1e-5 rad, chosen on plant tuning runs 1000-1299, where the mass improved monotonically as the
-        threshold fell: median / p95 of the max error 7.95 / 33.2 % without the gate, 7.79 / 30.5 % at 0.002, 6.50
-        / 26.8 % at 1e-4, 5.42 / 26.3 % at 1e-5, 5.35 / 25.0 % at 1e-7; in effect the mass is learnt where the blend
-        cannot matter: before the window holds measured slopes, and where the two slopes agree once α is known;
-        session 10).
+        (its default 0.002 rad, chosen on plant tuning runs 1000-1299: mass max error median / p90 / p95 7.95 / 23.1
+        / 33.2 % without the gate, 7.92 / 22.7 / 31.6 % at 0.004, 7.79 / 21.9 / 30.5 % at 0.002; session 10).
     max_early_evidence : float
         (A) Geometry bank only: how far (in nats of the force-balance log-likelihood) the evidence gathered while
         the slope windows still hold the start-up guess may set the members apart (1: weights up to 73 / 27; 0: that

@@ -8,8 +8,8 @@ function. The kernels call each other across files (the geometry bank's step inl
 and read the array layout of ``dffrls_aekf_layout`` as compile-time constants, so an edit of one file (or a
 ``git pull``) left the others' cached machine code running the old code, silently (seen: a changed kernel gave
 bit-identical results through the bank). On import, :func:`drop_stale_caches` therefore compares a hash of all
-kernel sources with the one stored beside the cache and, when it differs, removes the kernels' cache files, so
-numba compiles them again.
+kernel sources with the one stored beside each cache folder numba may use (:func:`numba_cache_dirs`) and, when it
+differs, removes the kernels' cache files there, so numba compiles them again.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ KERNEL_SOURCES: tuple[str, ...] = ("numba_shim.py", "dffrls_aekf_layout.py", "df
 
 STAMP_NAME = "kernels.sha256"
 
-__all__ = ["HAVE_NUMBA", "KERNEL_SOURCES", "drop_stale_caches", "njit"]
+__all__ = ["HAVE_NUMBA", "KERNEL_SOURCES", "drop_stale_caches", "njit", "numba_cache_dirs"]
 
 
 def drop_stale_caches(source_dir: Path, cache_dir: Path, sources: Iterable[str] = KERNEL_SOURCES) -> bool:
@@ -63,6 +63,27 @@ def drop_stale_caches(source_dir: Path, cache_dir: Path, sources: Iterable[str] 
     return True
 
 
+def numba_cache_dirs(source_dir: Path) -> list[Path]:
+    """Where numba may keep the caches of functions defined in ``source_dir``: beside the sources (``__pycache__``),
+    under ``NUMBA_CACHE_DIR`` when set, and numba's user-wide folder (its fallback when the sources' folder is not
+    writable, e.g. a read-only install). The last two use numba's own path rule, read from numba's (internal)
+    locator; if that ever moves, only ``__pycache__`` is checked."""
+    dirs = [source_dir / "__pycache__"]
+    try:
+        from numba.core import caching, config
+        from numba.misc.appdirs import AppDirs
+
+        sub = caching._CacheLocator.get_suitable_cache_subpath(str(source_dir / KERNEL_SOURCES[0]))
+        if config.CACHE_DIR:
+            dirs.append(Path(config.CACHE_DIR) / sub)
+        dirs.append(Path(AppDirs(appname="numba", appauthor=False).user_cache_dir) / sub)
+    except Exception:  # pragma: no cover - numba internals moved: the in-tree folder is still guarded
+        pass
+    return dirs
+
+
 if HAVE_NUMBA:
     _here = Path(__file__).resolve().parent
-    drop_stale_caches(_here, _here / "__pycache__")
+    for _d in numba_cache_dirs(_here):
+        if _d.name == "__pycache__" or _d.is_dir():  # never create numba's other folders just to stamp them
+            drop_stale_caches(_here, _d)

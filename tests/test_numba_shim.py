@@ -46,3 +46,16 @@ def test_the_guard_covers_every_file_that_compiles_kernels() -> None:
     users = {p.name for p in pkg.glob("*.py") if "numba_shim import" in p.read_text()}
     assert users <= set(KERNEL_SOURCES)
     assert "dffrls_aekf_layout.py" in KERNEL_SOURCES
+
+
+def test_every_cache_folder_numba_may_use_is_guarded() -> None:
+    from estimators import numba_shim
+
+    pkg = Path(numba_shim.__file__).resolve().parent
+    dirs = numba_shim.numba_cache_dirs(pkg)
+    assert dirs[0] == pkg / "__pycache__"
+    if numba_shim.HAVE_NUMBA:  # numba's user-wide fallback, named by numba's own rule for this source folder
+        from numba.core import caching
+
+        sub = caching._CacheLocator.get_suitable_cache_subpath(str(pkg / "dffrls_aekf_kernel.py"))
+        assert any(d.name == sub for d in dirs[1:])

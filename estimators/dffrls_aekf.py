@@ -327,7 +327,7 @@ class DFFRLSAEKF(Estimator):
         self.C = self.config.settings(self.vehicle)
         self.S = np.zeros(kern.N_S)
         self.H = np.zeros(kern.N_HIST_MAX)
-        self._out = np.zeros(9)
+        self._out = np.zeros(kern.N_EST)
         self.reset()
 
     def reset(self) -> None:
@@ -361,7 +361,7 @@ class DFFRLSAEKF(Estimator):
         """
         if reset:
             self.reset()
-        t, dts, cols, out = batch_arrays(trace, t_prev_s, 9)
+        t, dts, cols, out = batch_arrays(trace, t_prev_s, kern.N_EST)
         kern.run(self.S, self.H, self.C, *cols, dts, out)
         rows = out.T
         extras = {"mu": rows[4], "mu_std": rows[5], "nis": rows[7]}

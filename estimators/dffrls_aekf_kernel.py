@@ -37,7 +37,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     FORCE_IN, GT_LAST, GT_REJ, GV_LAST, GV_REJ, GF_LAST, GF_REJ, LF1, LF2, LF_OK, LV1, LV2, LV_OK, LQ1, LQ2, LQ_OK,
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
-    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX,
+    N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
@@ -456,10 +456,10 @@ def steps(S, H, C, torque, speed, accel, dt):
 
 @njit(cache=True)
 def run(S, H, C, torque, speed, accel, dts, out):
-    """The batch path: :func:`step` + :func:`estimate` over whole arrays; ``out`` has shape (n, 9)."""
-    row = np.empty(9)
+    """The batch path: :func:`step` + :func:`estimate` over whole arrays; ``out`` has shape (n, N_EST)."""
+    row = np.empty(N_EST)
     for i in range(torque.shape[0]):
         step(S, H, C, torque[i], speed[i], accel[i], dts[i])
         estimate(S, C, row)
-        for j in range(9):
+        for j in range(N_EST):
             out[i, j] = row[j]

@@ -146,3 +146,5 @@ AMBIG = 71  # written by the geometry bank: how much its members disagree on the
 SCORE_EARLY = 72  # as SCORE, while the slope window still holds the start-up guess (the bank caps its weight)
 N_S = 73
 N_HIST_MAX = 512
+# --- estimate row: what estimate() writes (mass, slope, their stds, mu, mu_std, alpha, nis, score) -------------
+N_EST = 9

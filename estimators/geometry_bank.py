@@ -91,7 +91,7 @@ class GeometryBank(Estimator):
         self._CC = np.ascontiguousarray(np.stack([m.C for m in self.members]))
         for i, m in enumerate(self.members):
             m.S, m.H, m.C = self._SS[i], self._HH[i], self._CC[i]
-        self._rows = np.zeros((k, 9))
+        self._rows = np.zeros((k, kern.N_EST))
         self._out = np.zeros(bk.N_OUT_FIXED + k)
         self._w = np.zeros(k)
         self._weight_keys = [f"weight_window_{w:g}m" for w in self.windows_m]

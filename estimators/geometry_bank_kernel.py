@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from .dffrls_aekf_kernel import AMBIG, EARLY_CAP, SCORE, SCORE_EARLY, TH_TRAIN, estimate, step
+from .dffrls_aekf_kernel import AMBIG, EARLY_CAP, N_EST, SCORE, SCORE_EARLY, TH_TRAIN, estimate, step
 from .numba_shim import njit
 
 __all__ = ["ambiguity", "bank_estimate", "bank_run", "bank_step", "bank_steps", "member_score", "mix",
@@ -21,7 +21,7 @@ N_OUT_FIXED = 7
 
 @njit(cache=True)
 def bank_estimate(SS, CC, rows, out):
-    """Members' estimates into ``rows`` (k x 9), their mixture into ``out`` (:func:`mix`)."""
+    """Members' estimates into ``rows`` (k x N_EST), their mixture into ``out`` (:func:`mix`)."""
     for i in range(SS.shape[0]):
         estimate(SS[i], CC[i], rows[i])
         rows[i, 8] = member_score(SS, CC, i)
@@ -56,7 +56,7 @@ def normalise_evidence(w, w0, k):
 
 @njit(cache=True)
 def mix(rows, out):
-    """The mixture of the members' output rows (k x 9, score in column 8) into ``out``: the fixed entries, then the
+    """The mixture of the members' output rows (k x N_EST, score in column 8) into ``out``: the fixed entries, then the
     k weights ``∝ exp(−score)``; each mean is weighted, each standard deviation includes the members' spread."""
     k = rows.shape[0]
     for i in range(k):
@@ -117,7 +117,7 @@ def bank_steps(SS, HH, CC, torque, speed, accel, dt, w):
 @njit(cache=True)
 def bank_run(SS, HH, CC, torque, speed, accel, dts, out):
     """The batch path: :func:`bank_step` + :func:`bank_estimate` over whole arrays; ``out`` is (n, 7 + k)."""
-    rows = np.empty((SS.shape[0], 9))
+    rows = np.empty((SS.shape[0], N_EST))
     row = np.empty(out.shape[1])
     w = np.empty(SS.shape[0])
     for n in range(torque.shape[0]):

@@ -197,8 +197,9 @@ def settling_time_s(
     return float(tk[last_bad + 1] - t[0])
 
 
-def chi2_band(samples: int, dof: int = 1, level: float = 0.95) -> tuple[float, float]:
-    """Two-sided ``level`` band of the average of ``samples`` independent χ²(dof) variables (mean ``dof``)."""
+def chi2_band(samples: float, dof: int = 1, level: float = 0.95) -> tuple[float, float]:
+    """Two-sided ``level`` band of the average of ``samples`` independent χ²(dof) variables (mean ``dof``);
+    ``samples`` may be an effective (non-integer) count."""
     from scipy.stats import chi2
 
     if samples < 1 or dof < 1:
@@ -358,15 +359,18 @@ def consistent_in_band_share(lengths, acf: np.ndarray, rng: np.random.Generator,
     from scipy.linalg import toeplitz
 
     hits = total = 0
+    roots: dict[int, np.ndarray] = {}  # runs of one length share the factor (most runs have the same length)
     for n in lengths:
         n = int(n)
         if n < 1:
             continue
-        r = np.zeros(n)
-        k = min(n, len(acf))
-        r[:k] = acf[:k]
-        w, v = np.linalg.eigh(toeplitz(r))  # a pooled ACF need not be positive definite: clip its spectrum
-        root = v * np.sqrt(np.clip(w, 0.0, None))
+        if n not in roots:
+            r = np.zeros(n)
+            k = min(n, len(acf))
+            r[:k] = acf[:k]
+            w, v = np.linalg.eigh(toeplitz(r))  # a pooled ACF need not be positive definite: clip its spectrum
+            roots[n] = v * np.sqrt(np.clip(w, 0.0, None))
+        root = roots[n]
         lo, hi = chi2_band(n)
         for _ in range(draws):
             z = root @ rng.standard_normal(n)

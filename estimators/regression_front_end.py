@@ -17,14 +17,17 @@ def swing_geometry(v: VehicleParams, chain_length_m: float | None, hook_mass_kg:
                    who: str = "") -> tuple[float, float]:
     """The load swing an estimator models: ``(chain length, hook mass)``, each the estimator's option or, when that
     is None, the vehicle file's (validated; ``who`` prefixes the error)."""
-    chain = v.chain_length_m if chain_length_m is None else chain_length_m
+    chain = _checked_chain(v.chain_length_m if chain_length_m is None else chain_length_m, who)
     hook = v.hook_mass_kg if hook_mass_kg is None else hook_mass_kg
-    if isinstance(chain, bool) or not isinstance(chain, (int, float)) or not (0.0 <= chain < math.inf):
-        raise ValueError(f"{who}chain_length_m must be a finite number >= 0 (0: no load-swing model), "
-                         f"got {chain_length_m!r}")
     if isinstance(hook, bool) or not isinstance(hook, (int, float)) or not (0.0 <= hook <= v.empty_mass_kg):
         raise ValueError(f"{who}hook_mass_kg must be in [0, empty_mass_kg], got {hook_mass_kg!r}")
-    return float(chain), float(hook)
+    return chain, float(hook)
+
+
+def _checked_chain(chain: object, who: str = "") -> float:
+    if isinstance(chain, bool) or not isinstance(chain, (int, float)) or not (0.0 <= chain < math.inf):
+        raise ValueError(f"{who}chain_length_m must be a finite number >= 0 (0: no load-swing model), got {chain!r}")
+    return float(chain)
 
 
 class RegressionFrontEnd:
@@ -63,9 +66,7 @@ class RegressionFrontEnd:
         self.r = vehicle.drive_wheel_radius_m
         self.lp_force = LowPass2(cutoff_hz)
         self.lp_speed = LowPass2(cutoff_hz)
-        if not (chain_length_m >= 0.0 and math.isfinite(chain_length_m)):
-            raise ValueError(
-                f"chain_length_m must be a finite number >= 0 (0: no load-swing model), got {chain_length_m!r}")
+        chain_length_m = _checked_chain(chain_length_m)
         if not (sway_damping_ratio >= 0.0 and math.isfinite(sway_damping_ratio)):
             raise ValueError(f"sway_damping_ratio must be a finite number >= 0, got {sway_damping_ratio!r}")
         self.swing = chain_length_m > 0.0

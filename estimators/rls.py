@@ -109,7 +109,7 @@ class _RLSMassBase(Estimator):
         self.p1_max = self.m_ref / self.mass_min
         chain_length_m, hook_mass_kg = swing_geometry(v, chain_length_m, hook_mass_kg)
         # the part of the train that moves with the drive section (all but the hook block and the payload)
-        self.rigid_mass = v.empty_mass_kg - float(hook_mass_kg)
+        self.rigid_mass = v.empty_mass_kg - hook_mass_kg
         self.front = RegressionFrontEnd(v, cutoff_hz, min_speed_mps, min_traction_fraction, chain_length_m,
                                         sway_damping_ratio)
         if not (min_accel_mps2 >= 0.0 and math.isfinite(min_accel_mps2)):

@@ -30,7 +30,6 @@ import argparse
 import sys
 
 import numpy as np
-from scipy.stats import chi2
 
 import estimators
 from estimators.metrics import (chi2_band, consistent_in_band_share, effective_samples, normalised_error_samples,
@@ -47,12 +46,9 @@ def _run_errors(trace, name: str) -> dict[str, np.ndarray]:
 
 
 def _in_band(z: np.ndarray, n_eff: float | None = None) -> bool:
-    nees = float(np.mean(z * z))
-    if n_eff is None:
-        lo, hi = chi2_band(len(z))
-    else:
-        lo, hi = chi2.ppf(0.025, n_eff) / n_eff, chi2.ppf(0.975, n_eff) / n_eff
-    return bool(lo <= nees <= hi)
+    """The protocol's band for ``len(z)`` independent samples, or for ``n_eff`` effective ones."""
+    lo, hi = chi2_band(len(z) if n_eff is None else n_eff)
+    return bool(lo <= float(np.mean(z * z)) <= hi)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -27,14 +27,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("summary", type=Path, help="summary.csv of the merged evaluation")
     ap.add_argument("--runs", nargs="+", type=Path, required=True, help="the policies' run directories")
     ap.add_argument("--out", type=Path, required=True)
-    ap.add_argument("--note", default="", help="said after the source in the first line (e.g. where the policies are shipped)")
+    ap.add_argument("--note", default="",
+                    help="said after the source in the first line (e.g. where the policies are shipped)")
     args = ap.parse_args(argv)
     with open(args.summary) as fh:
         rows = list(csv.DictReader(fh))
     trained = {r.name: json.loads((r / "config.json").read_text())["observer"] for r in args.runs}
     observers = list(dict.fromkeys(r["observer"] for r in rows if r["controller"] in trained))
     note = f" ({args.note})" if args.note else ""
-    lines = [f"Cross table from `{args.summary}`{note}: rows = the observer a policy was trained with (its run directory),",
+    lines = [f"Cross table from `{args.summary}`{note}: rows = the observer a policy was trained with "
+             "(its run directory),",
              "columns = the observer it drives with; cells = overspeed trips / episodes, trip time / oracle IQM.", "",
              "| trained with (policy) | " + " | ".join(f"run with `{o}`" for o in observers) + " |",
              "|---|" + "---|" * len(observers)]

@@ -57,7 +57,8 @@ def test_study_row_episode_is_reproduced_by_its_shipped_policy(observer, seed):
 
 
 RB_STUDY = ROOT / "results" / "agents" / "observer_study_rule_based"
-RB_OBSERVERS = ["oracle", "dffrls-aekf-paper", "dffrls-aekf", "fused", "sf-kf", "rls-ekf", "ekf", "ffrls", "mmae", "none"]
+RB_OBSERVERS = ["oracle", "dffrls-aekf-paper", "dffrls-aekf", "fused", "sf-kf", "rls-ekf", "ekf", "ffrls", "mmae",
+                "none"]
 
 
 @pytest.mark.parametrize("observer", RB_OBSERVERS)

@@ -32,6 +32,17 @@ class WindowMax:
         while q[0][0] < cutoff:
             q.popleft()
 
+    def value_within(self, t_s: float, span_s: float) -> float | None:
+        """The extreme of the values pushed at ``t_s - span_s`` or later (``span_s <= self.span_s``), or None.
+
+        The deque holds the window's extremes in time order, each larger (for ``sign=1``) than every later one, so
+        the extreme of any more recent part of the window is its first entry that falls inside it."""
+        cutoff = t_s - span_s
+        for t, y in self._q:
+            if not t < cutoff:
+                return self.sign * y
+        return None
+
     @property
     def value(self) -> float | None:
         """The window's extreme, or None before the first push."""

@@ -208,3 +208,37 @@ def test_light_load_margin_raises_the_cap_only_below_its_mass():
     assert light.light_speed_margin == 0.02 and default.light_speed_margin is None
     assert cap(light, 20_000.0) > cap(default, 20_000.0) * 1.04
     assert cap(light, 33_000.0) == cap(default, 33_000.0)
+
+
+def test_light_memory_forgets_a_heavier_mass_sooner_only_while_the_train_plans_light():
+    """``light_memory_s``: the heaviest pessimistic mass is remembered for 5 s instead of 15 s while the pessimistic
+    mass now is below ``light_memory_mass_kg``; off by default, and equal to the default when it is ``memory_s``
+    (docs/rl.md §17)."""
+    from agents.controllers import RuleBasedController
+    from agents.control_input import ControlInput
+    from uuom_core.vehicle import VehicleParams
+
+    v = VehicleParams()
+
+    def planning_mass(ctrl: RuleBasedController, later_kg: float, seconds_after: float) -> float:
+        ctrl.reset()
+        heavy = ControlInput(0.0, 0.5, 500.0, 34_000.0, 100.0, 0.0, math.radians(0.05), 0.1)
+        for _ in range(100):  # 10 s at 34 t (past the warm-up)
+            ctrl._remember(heavy)
+        x = ControlInput(0.0, 0.5, 500.0, later_kg, 100.0, 0.0, math.radians(0.05), 0.1)
+        for _ in range(int(round(seconds_after / 0.1))):
+            ctrl._remember(x)
+        return ctrl.pessimistic(x)[0]
+
+    default = RuleBasedController(v)
+    light = RuleBasedController(v, light_memory_s=5.0)
+    same = RuleBasedController(v, light_memory_s=default.memory_s)
+    assert default.light_memory_s is None
+    # an estimate that drops to 20 t: the default plans with the 34 t for 15 s, the light memory for 5 s
+    assert planning_mass(default, 20_000.0, 8.0) == pytest.approx(34_200.0)
+    assert planning_mass(light, 20_000.0, 8.0) == pytest.approx(20_200.0)
+    assert planning_mass(same, 20_000.0, 8.0) == planning_mass(default, 20_000.0, 8.0)
+    # a drop to 30 t is not "light": the full memory holds
+    assert planning_mass(light, 30_000.0, 8.0) == planning_mass(default, 30_000.0, 8.0) == pytest.approx(34_200.0)
+    with pytest.raises(ValueError, match="light_memory_s"):
+        RuleBasedController(v, light_memory_s=20.0)

@@ -53,6 +53,14 @@ class RuleBasedController(SpeedController):
         default margins only trains above 27 t ever crossed the limit on 100 held-out tracks (docs/rl.md §14).
     light_mass_kg : float
         Mass below which ``light_speed_margin`` applies.
+    light_memory_s : float or None
+        Memory of the heaviest pessimistic mass used instead of ``memory_s`` while the pessimistic mass *now* is below
+        ``light_memory_mass_kg`` (at most ``memory_s``). Off by default. Why: the 15 s memory costs 3.6 % of trip
+        time, and the speed-limit violations it prevents were all on trains of 33-36 t; honoured in full only for
+        heavy planning masses (5 s below 28 t) the controller was 2.4 % faster on the 100 held-out tracks and
+        1.9 % on 100 fresh ones, at no higher cost rate (docs/rl.md §17).
+    light_memory_mass_kg : float
+        Pessimistic mass below which ``light_memory_s`` applies.
     mass_std_floor_frac : float
         The mass standard deviation planned with is at least this fraction of the estimate. Off by default:
         0.03 cut the cost rate with DFFRLS-AEKF from 2.7e-04 to 2.5e-08 on 100 held-out tracks but made the
@@ -84,7 +92,13 @@ class RuleBasedController(SpeedController):
         mass_std_floor_frac: float = 0.0,
         light_speed_margin: float | None = None,
         light_mass_kg: float = 27_000.0,
+        light_memory_s: float | None = None,
+        light_memory_mass_kg: float = 28_000.0,
     ) -> None:
+        if light_memory_s is not None and not (0.0 <= light_memory_s <= memory_s):
+            raise ValueError(f"light_memory_s must be in [0, memory_s = {memory_s}] or None, got {light_memory_s!r}")
+        self.light_memory_s = light_memory_s
+        self.light_memory_mass_kg = light_memory_mass_kg
         self.light_speed_margin = light_speed_margin
         self.light_mass_kg = light_mass_kg
         self._grade_check = GradeCrossCheck()
@@ -112,8 +126,12 @@ class RuleBasedController(SpeedController):
         """Mass and slope the controller plans with (heavier and more downhill than estimated)."""
         v = self.vehicle
         mass = self._pessimistic_mass_now(x)
-        if self._mass_max.value is not None:
-            mass = max(mass, self._mass_max.value)
+        if self.light_memory_s is not None and mass < self.light_memory_mass_kg:
+            remembered = self._mass_max.value_within(self._t_s, self.light_memory_s)
+        else:
+            remembered = self._mass_max.value
+        if remembered is not None:
+            mass = max(mass, remembered)
         if self._t_s < self.warmup_s:
             mass = max(mass, v.rated_mass_kg)
         slope = x.est_slope_rad - self.k_sigma * x.est_slope_std_rad - self.slope_margin_rad

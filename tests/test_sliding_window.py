@@ -22,15 +22,17 @@ def _scan(history: list[tuple[float, float]], span_s: float, sign: float) -> flo
 
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.tuples(st.floats(0.0, 2.0), st.floats(-1e6, 1e6)), min_size=1, max_size=80),
-       st.floats(0.0, 5.0), st.sampled_from([1.0, -1.0]))
-def test_window_extreme_equals_a_scan_of_the_window(steps, span_s, sign):
+       st.floats(0.0, 5.0), st.sampled_from([1.0, -1.0]), st.floats(0.0, 1.0))
+def test_window_extreme_equals_a_scan_of_the_window(steps, span_s, sign, part):
+    # value_within: the extreme of the most recent part of the window (the rule-based controller's light_memory_s)
     w = WindowMax(span_s, sign)
     t, history = 0.0, []
     for dt, x in steps:
         t += dt
         history.append((t, x))
         w.push(t, x)
-        assert w.value == _scan(history, span_s, sign)
+        assert w.value == _scan(history, span_s, sign) == w.value_within(t, span_s)
+        assert w.value_within(t, part * span_s) == _scan(history, part * span_s, sign)
 
 
 def test_window_is_empty_until_the_first_push():
@@ -56,17 +58,3 @@ def test_clamp_is_np_clip_for_one_number(x, lo, hi):
     a, b = clamp(x, lo, hi), float(np.clip(x, lo, hi))
     assert (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1, a) == math.copysign(1, b))
 
-
-@settings(max_examples=200, deadline=None)
-@given(st.lists(st.tuples(st.floats(0.0, 2.0), st.floats(-1e6, 1e6)), min_size=1, max_size=80),
-       st.floats(0.0, 5.0), st.floats(0.0, 1.0), st.sampled_from([1.0, -1.0]))
-def test_value_within_a_shorter_span_equals_a_scan_of_that_part(steps, span_s, part, sign):
-    # the rule-based controller's light_memory_s: the extreme of the most recent part of the window
-    w = WindowMax(span_s, sign)
-    t, history = 0.0, []
-    for dt, x in steps:
-        t += dt
-        history.append((t, x))
-        w.push(t, x)
-        assert w.value_within(t, part * span_s) == _scan(history, part * span_s, sign)
-        assert w.value_within(t, span_s) == w.value

@@ -58,7 +58,8 @@ class RuleBasedController(SpeedController):
         ``light_memory_mass_kg`` (at most ``memory_s``). Off by default. Why: the 15 s memory costs 3.6 % of trip
         time, and the speed-limit violations it prevents were all on trains of 33-36 t; honoured in full only for
         heavy planning masses (5 s below 28 t) the controller was 2.4 % faster on the 100 held-out tracks and
-        1.9 % on 100 fresh ones, at no higher cost rate (docs/rl.md §17).
+        1.9 % on 100 fresh ones with ``dffrls-aekf`` (lower cost rate), 2.2-2.3 % with ``fused`` / ``sf-kf``, always
+        with the same violating episodes (docs/rl.md §17).
     light_memory_mass_kg : float
         Pessimistic mass below which ``light_memory_s`` applies.
     mass_std_floor_frac : float

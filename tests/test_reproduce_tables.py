@@ -11,14 +11,15 @@ a second), so the suite keeps its budget; ``scripts/observer_study.sh`` re-runs 
 
 from __future__ import annotations
 
-import csv
+import functools
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import pytest
 
-from agents.evaluation import Task, run_episode
+from agents.evaluation import Task, read_episodes, run_episode
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "results" / "agents" / "observer_study_ppo"
@@ -30,11 +31,15 @@ CASES = [("oracle", 0), ("dffrls-aekf", 1), ("fused", 2), ("sf-kf", 0), ("dffrls
          ("rls-ekf", 0), ("ffrls", 1), ("ekf", 2), ("mmae", 0)]
 
 
-def _committed(observer: str, training_run: str) -> dict[str, str]:
-    with open(STUDY / "episodes.csv") as fh:
-        rows = [r for r in csv.DictReader(fh) if r["observer"] == observer and r.get("training_run") == training_run
-                and int(r["seed"]) == SEED]
-    assert len(rows) == 1, f"{observer}/{training_run}: expected one committed episode on seed {SEED}, got {len(rows)}"
+@functools.lru_cache(maxsize=None)
+def _first_track_rows(study: Path) -> list[dict[str, Any]]:
+    """The committed episodes of ``study`` on the first held-out track (the file is read once per process)."""
+    return [r for r in read_episodes(study / "episodes.csv") if r["seed"] == SEED]
+
+
+def _committed(study: Path, **match: str) -> dict[str, Any]:
+    rows = [r for r in _first_track_rows(study) if all(r.get(k) == v for k, v in match.items())]
+    assert len(rows) == 1, f"{study.name} {match}: expected one committed episode on seed {SEED}, got {len(rows)}"
     return rows[0]
 
 
@@ -51,7 +56,7 @@ def test_study_row_episode_is_reproduced_by_its_shipped_policy(observer, seed):
     run, training_run = _policy(observer, seed)
     cfg = json.loads((run / "config.json").read_text())
     assert cfg["observer"] == observer
-    want = _committed(observer, training_run)
+    want = _committed(STUDY, observer=observer, training_run=training_run)
     got = run_episode(Task(str(run), observer, SEED, json.dumps(cfg["env_kwargs"])))
     _same_episode(got, want, "stale row: re-run it (scripts/observer_study.sh) and re-merge the study")
 
@@ -64,23 +69,20 @@ RB_OBSERVERS = ["oracle", "dffrls-aekf-paper", "dffrls-aekf", "fused", "sf-kf", 
 @pytest.mark.parametrize("observer", RB_OBSERVERS)
 def test_rule_based_study_row_episode_is_reproduced(observer):
     """The README's "how much the estimator decides safety" table: the rule-based controller with every observer."""
-    with open(RB_STUDY / "episodes.csv") as fh:
-        want = next(r for r in csv.DictReader(fh)
-                    if r["controller"] == "rule-based" and r["observer"] == observer and int(r["seed"]) == SEED)
+    want = _committed(RB_STUDY, controller="rule-based", observer=observer)
     got = run_episode(Task("rule-based", observer, SEED))
     _same_episode(got, want, "stale row: re-run the README's command for results/agents/observer_study_rule_based")
 
 
 def test_rule_based_reference_of_the_ppo_study_is_reproduced():
-    with open(STUDY / "episodes.csv") as fh:
-        want = next(r for r in csv.DictReader(fh) if r["controller"] == "rule-based" and int(r["seed"]) == SEED)
+    want = _committed(STUDY, controller="rule-based")
     _same_episode(run_episode(Task("rule-based", want["observer"], SEED)), want, "stale reference row")
 
 
-def _same_episode(got: dict, want: dict[str, str], stale: str) -> None:
+def _same_episode(got: dict[str, Any], want: dict[str, Any], stale: str) -> None:
     assert str(got["termination"]) == want["termination"], (stale, got["termination"], want["termination"])
-    assert str(got["overspeed_trip"]) == want["overspeed_trip"], stale
-    assert math.isclose(float(got["trip_time_s"]), float(want["trip_time_s"]), rel_tol=0, abs_tol=1e-6), (
+    assert bool(got["overspeed_trip"]) == want["overspeed_trip"], stale
+    assert math.isclose(float(got["trip_time_s"]), want["trip_time_s"], rel_tol=0, abs_tol=1e-6), (
         stale, got["trip_time_s"], want["trip_time_s"])
-    assert math.isclose(float(got["cost"]), float(want["cost"]), rel_tol=1e-6, abs_tol=1e-9), (
+    assert math.isclose(float(got["cost"]), want["cost"], rel_tol=1e-6, abs_tol=1e-9), (
         stale, got["cost"], want["cost"])

@@ -1,0 +1,38 @@
+"""scripts/estimator_quick_check.py: ``--decimate K`` gives the estimators what a logger at 200/K Hz records."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uuom_core.trace import Trace
+
+_SPEC = importlib.util.spec_from_file_location(
+    "estimator_quick_check", Path(__file__).parents[1] / "scripts" / "estimator_quick_check.py")
+qc = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(qc)  # type: ignore[union-attr]
+
+
+def _trace(n: int = 10) -> Trace:
+    t = np.arange(n) * 0.005
+    return Trace({"t_s": t, "torque_nm": t * 10, "speed_mps": t * 2, "accel_mps2": t * 3, "mass_kg": np.full(n, 2e4)},
+                 source="made-up", meta={"chain_m": "2.5"})
+
+
+def test_decimate_keeps_every_kth_row_of_every_column_and_the_meta():
+    tr = _trace()
+    d = qc.decimate(tr, 4)
+    assert list(d.columns) == list(tr.columns)
+    for c in tr.columns:
+        np.testing.assert_array_equal(d[c], tr[c][::4])
+    assert np.allclose(np.diff(d["t_s"]), 0.02) and d.meta == tr.meta
+    assert qc.decimate(tr, 1) is tr
+
+
+def test_decimate_below_one_is_refused_before_any_run(capsys):
+    with pytest.raises(SystemExit) as exc:
+        qc.main(["--decimate", "0", "--runs", "0", "--tuning", "0"])
+    assert exc.value.code == 2 and "--decimate must be >= 1" in capsys.readouterr().err

@@ -74,6 +74,13 @@ class _Terminated(BaseException):
     """SIGTERM, turned into an exception so that the same clean-up as for Ctrl-C runs."""
 
 
+TUNED_SAMPLE_HZ = 200.0
+"""The sample rate of the env and of every run the estimators were tuned on."""
+
+RATE_NOTE_TOLERANCE = 0.2
+"""A trace whose median rate is more than this fraction away from :data:`TUNED_SAMPLE_HZ` gets a note."""
+
+
 def _on_sigterm(signum: int, frame: Any) -> None:
     raise _Terminated()
 
@@ -369,6 +376,13 @@ def _run(args: argparse.Namespace) -> int:
     for w in caught:
         print(f"{PROG}: warning: {w.message}", file=sys.stderr)
     summary = scores.result()
+    sample_hz = 1.0 / blocks.median_dt_s if blocks.median_dt_s > 0 else None
+    summary["sample_hz"] = sample_hz
+    if sample_hz is not None and abs(sample_hz / TUNED_SAMPLE_HZ - 1.0) > RATE_NOTE_TOLERANCE:
+        print(f"{PROG}: note: {args.trace}: sampled at {sample_hz:.4g} Hz (median interval "
+              f"{1000.0 * blocks.median_dt_s:.4g} ms); the estimators' settings are per {TUNED_SAMPLE_HZ:g} Hz "
+              f"sample — on 100 / 50 Hz logs expect up to ~2x the mass error (docs/estimation.md, \"Logs at other "
+              f"sample rates\")", file=sys.stderr)
     summary["estimator"] = args.estimator
     summary["trace"] = str(args.trace)
     if args.json:

@@ -306,3 +306,20 @@ def test_bad_estimator_option(good_trace: Path, tmp_path: Path, capsys, option: 
     line = _bad(capsys, str(good_trace), "--option", option, "--out", str(out))
     assert "--option" in line and what in line
     assert not out.exists()  # refused before anything is written
+
+
+def test_the_sample_rate_is_reported_and_a_log_far_from_200_hz_gets_a_note(good_trace: Path, tmp_path: Path,
+                                                                          capsys) -> None:
+    """The estimators are tuned per 200 Hz sample: the summary gives the trace's median rate, and a log at another
+    rate (here every 4th row: 50 Hz) is estimated all the same, with one note on stderr that names its rate."""
+    rc, stdout, err = _run(capsys, str(good_trace), "--json")
+    assert rc == 0 and json.loads(stdout)["sample_hz"] == pytest.approx(200.0, rel=1e-3) and "note" not in err
+    tr = read_trace_csv(good_trace)
+    slow = tmp_path / "slow.csv"
+    write_trace_csv({c: v[::4] for c, v in tr.columns.items()}, slow)
+    out = tmp_path / "est.csv"
+    rc, stdout, err = _run(capsys, str(slow), "--json", "--out", str(out))
+    assert rc == 0 and json.loads(stdout)["sample_hz"] == pytest.approx(50.0, rel=1e-3)
+    notes = [line for line in err.splitlines() if "note" in line]
+    assert len(notes) == 1 and "50 Hz" in notes[0] and "200 Hz" in notes[0]
+    assert len(out.read_text().splitlines()) - 1 == len(tr["t_s"][::4])

@@ -159,6 +159,7 @@ class _Checker:
         self._empty = dict.fromkeys(REQUIRED_COLUMNS[1:], 0)
         self._short = 0
         self._first_short = 0
+        self.median_dt_s = math.nan  # set by finish() (two rows or more)
 
     def check(self, raw: RawColumns) -> None:
         path, cols = self.path, raw.values
@@ -232,6 +233,7 @@ class _Checker:
         warnings_out: list[str] = []
         if n >= 2:
             med = float(np.median(np.concatenate(self._dts)))
+            self.median_dt_s = med
             lo, hi = SAMPLE_INTERVAL_RANGE_S
             if not lo <= med <= hi:
                 hint = " (time in milliseconds? the column must be in seconds)" if 1.0 < med <= 1000.0 else ""
@@ -344,6 +346,8 @@ class TraceBlocks:
         The columns each block holds.
     rows : int
         Rows read so far.
+    median_dt_s : float
+        After the last block: the median sample interval (s); NaN before, or with fewer than two rows.
     """
 
     def __init__(self, path: str | Path, *, columns: Iterable[str] | None = None) -> None:
@@ -355,6 +359,7 @@ class TraceBlocks:
         self.columns = [name for _, name in self._wanted]
         self.warnings: list[str] = []
         self.rows = 0
+        self.median_dt_s = math.nan
 
     def __iter__(self) -> Iterator[Trace]:
         checker = _Checker(self.path)
@@ -365,6 +370,7 @@ class TraceBlocks:
                 if len(raw):
                     yield Trace(raw.values, source=self.path)
         self.warnings = checker.finish()
+        self.median_dt_s = checker.median_dt_s
         for note in self.warnings:
             warnings.warn(note, TraceWarning, stacklevel=2)
 

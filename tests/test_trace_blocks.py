@@ -50,6 +50,16 @@ def test_blocks_concatenate_to_the_whole_file(log: Path, small_blocks) -> None:
     assert notes == whole.warnings
 
 
+def test_median_sample_interval_is_known_after_the_last_block(log: Path, small_blocks) -> None:
+    reader = TraceBlocks(log)
+    assert np.isnan(reader.median_dt_s)  # before the iteration
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TraceWarning)
+        for _ in reader:
+            pass
+    assert reader.median_dt_s == pytest.approx(0.005, rel=1e-6)
+
+
 def _messy(tmp_path: Path, rows: int = 3000) -> tuple[Path, list[str]]:
     """A log whose middle needs the exact path (a quoted cell, a blank line, a short row) and has a dropout."""
     t = np.arange(rows) * 0.005

@@ -143,6 +143,11 @@ class RuleBasedController(SpeedController):
             slope = min(slope, mf - self.cross_check_margin_rad)
         return mass, slope
 
+    @property
+    def model_free_slope_rad(self) -> float | None:
+        """The accelerometer's model-free grade (:class:`GradeCrossCheck`), ``None`` until it has one."""
+        return self._grade_check.slope_rad
+
     def feedforward_slope_rad(self, x: ControlInput) -> float:
         """Grade used for the force feed-forward: the estimate, unless the model-free grade disagrees."""
         mf = self._grade_check.slope_rad

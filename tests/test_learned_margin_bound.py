@@ -1,0 +1,69 @@
+"""scripts/learned_margin_bound.py: the learned-margin bound's scoring, causal features and a tiny end-to-end run."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uuom_core.vehicle import VehicleParams
+
+_SPEC = importlib.util.spec_from_file_location(
+    "learned_margin_bound", Path(__file__).parents[1] / "scripts" / "learned_margin_bound.py")
+lm = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(lm)  # type: ignore[union-attr]
+
+
+def test_score_counts_uncovered_steps_light_tracks_and_pessimism():
+    truth = np.full(6, 100.0)
+    planning = np.array([110.0, 99.5, 105.0, 98.0, 120.0, 101.0])
+    seed = np.array([0, 0, 1, 1, 2, 2])
+    sc = lm.score(planning, truth, seed)
+    assert sc["uncovered"] == pytest.approx(2 / 6)
+    assert sc["tracks_light"] == pytest.approx(1 / 3)  # only track 1 has a step > 1 % light (98); 99.5 is within
+    assert sc["median"] == pytest.approx(np.median(planning / truth) - 1)
+
+
+def test_lagged_features_are_causal_and_per_track():
+    seed = np.array([0, 0, 0, 0, 1, 1, 1])
+    v = np.array([1.0, 5.0, 2.0, 3.0, 10.0, 7.0, 9.0])
+    np.testing.assert_array_equal(lm._lagged(seed, v, 1, "lag"), [1, 1, 5, 2, 10, 10, 7])
+    np.testing.assert_array_equal(lm._lagged(seed, v, 2, "max"), [1, 5, 5, 5, 10, 10, 10])
+    np.testing.assert_array_equal(lm._lagged(seed, v, 2, "min"), [1, 1, 1, 2, 10, 7, 7])
+    # changing a later value never changes an earlier feature
+    w = v.copy()
+    w[3] = 100.0
+    np.testing.assert_array_equal(lm._lagged(seed, w, 2, "max")[:3], lm._lagged(seed, v, 2, "max")[:3])
+
+
+def test_k_sigma_at_interpolates_the_curve():
+    curve = [(1.0, {"uncovered": 0.2, "median": 0.02}), (2.0, {"uncovered": 0.02, "median": 0.06})]
+    k, med = lm.k_sigma_at(0.11, curve)
+    assert k == pytest.approx(1.5) and med == pytest.approx(0.04)
+
+
+def test_bad_arguments_are_refused_before_any_episode(capsys, tmp_path):
+    with pytest.raises(SystemExit) as exc:
+        lm.main(["--train", "0", "--out", str(tmp_path)])
+    assert exc.value.code == 2 and "--train and --validate must be >= 1" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        lm.main(["--quantiles", "1.5", "--out", str(tmp_path)])
+
+
+def test_end_to_end_on_three_tracks_writes_the_table_and_reuses_its_cache(tmp_path):
+    args = ["--train", "2", "--validate", "1", "--workers", "1", "--sizes", "--quantiles", "0.9",
+            "--cache", str(tmp_path / "steps.npz"), "--out", str(tmp_path / "out")]
+    assert lm.main(args) == 0
+    text = (tmp_path / "out" / "summary.md").read_text()
+    assert "rule-based default" in text and "learned q0.9, 2 training tracks" in text
+    assert (tmp_path / "out" / "tradeoff.png").stat().st_size > 0
+    z = np.load(tmp_path / "steps.npz")
+    assert set(np.unique(z["seed"])) == {0, 1, 2}
+    # the planning mass of the default controller is never below its own estimate + 2 sigma (clamped to the vehicle)
+    cap = VehicleParams().max_mass_kg
+    assert np.all(z["planning_mass_kg"] >= np.minimum(z["mass_kg"] + 2 * z["mass_std_kg"], cap) - 1e-6)
+    before = (tmp_path / "steps.npz").stat().st_mtime_ns
+    assert lm.main(args) == 0
+    assert (tmp_path / "steps.npz").stat().st_mtime_ns == before  # cached: no episode run again

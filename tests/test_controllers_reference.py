@@ -169,9 +169,11 @@ def test_rule_based_brakes_hard_when_the_slope_estimate_is_confidently_wrong():
     true_lim = speed_limit_mps(V, 18_500.0, math.radians(-14.0))
     ctrl = RuleBasedController(V, warmup_s=0.0)
     ctrl.reset()
+    assert ctrl.model_free_slope_rad is None  # nothing measured yet
     for x in _steady_downhill(-14.0, -1.4, 1.95):
         cmd = ctrl.command(x)
     assert ctrl.speed_cap(x) < true_lim
+    assert math.degrees(ctrl.model_free_slope_rad) == pytest.approx(-14.0, abs=0.1)  # what its cap planned with
     hold = force_to_command(V, -18_500.0 * G_MPS2 * math.sin(math.radians(14.0)), 1.95)
     assert cmd < hold - 0.1  # more than the grade force: it slows down
     blind = RuleBasedController(V, warmup_s=0.0)

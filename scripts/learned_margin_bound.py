@@ -109,6 +109,12 @@ def _lagged(seed: np.ndarray, values: np.ndarray, steps: int, how: str) -> np.nd
 def features(d: dict[str, np.ndarray]) -> np.ndarray:
     """What a policy may observe at a step (10 Hz steps: 50 = 5 s, 150 = 15 s)."""
     m = d["mass_kg"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = _columns(d, m)
+    return np.where(np.isfinite(x), x, np.nan)  # a zero σ (the oracle) or no μ: missing, which the trees handle
+
+
+def _columns(d: dict[str, np.ndarray], m: np.ndarray) -> np.ndarray:
     return np.column_stack([
         np.minimum(d["t_s"], 300.0), np.log(d["mass_std_kg"] / m), m / 1000.0, d["slope_rad"], d["slope_std_rad"],
         d["speed_mps"], d["position_m"], d["grade_gap_rad"], d["mu"], np.log(d["mu_std"]), np.log(d["nis"] + 1e-9),

@@ -38,6 +38,16 @@ def test_lagged_features_are_causal_and_per_track():
     np.testing.assert_array_equal(lm._lagged(seed, w, 2, "max")[:3], lm._lagged(seed, v, 2, "max")[:3])
 
 
+def test_features_turn_a_zero_sigma_or_a_missing_mu_into_missing_values_not_infinities():
+    n = 4
+    d = {c: np.ones(n) for c in lm.COLUMNS}
+    d.update(seed=np.zeros(n), t_s=np.arange(n) * 0.1, mass_kg=np.full(n, 2e4), mass_std_kg=np.zeros(n),
+             mu=np.full(n, np.nan), mu_std=np.full(n, np.nan), nis=np.zeros(n))
+    x = lm.features(d)
+    assert x.shape == (n, 14) and not np.isinf(x).any()
+    assert np.isnan(x[:, 1]).all() and np.isfinite(x[:, 0]).all()
+
+
 def test_k_sigma_at_interpolates_the_curve():
     curve = [(1.0, {"uncovered": 0.2, "median": 0.02}), (2.0, {"uncovered": 0.02, "median": 0.06})]
     k, med = lm.k_sigma_at(0.11, curve)

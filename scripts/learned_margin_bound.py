@@ -123,6 +123,25 @@ def _columns(d: dict[str, np.ndarray], m: np.ndarray) -> np.ndarray:
     ])
 
 
+def history_features(d: dict[str, np.ndarray]) -> np.ndarray:
+    """What the whole track so far says (``--history``): the estimate against its running mean and spread, the
+    excitation (summed speed changes, seconds and number of accelerations above 0.05 m/s²), the change since 10 s."""
+    out = np.full((d["mass_kg"].size, 6), np.nan)
+    for s in np.unique(d["seed"]):
+        idx = np.flatnonzero(d["seed"] == s)
+        m, v = d["mass_kg"][idx], d["speed_mps"][idx]
+        n = np.arange(1, idx.size + 1)
+        mean = np.cumsum(m) / n
+        spread = np.sqrt(np.maximum(np.cumsum(m * m) / n - mean * mean, 0.0)) / mean
+        dv = np.abs(np.diff(v, prepend=v[0]))
+        accelerating = (dv > 0.005).astype(float)  # 0.05 m/s² over a 0.1 s step
+        starts = np.cumsum(np.diff(accelerating, prepend=0.0) > 0)
+        since_10s = np.where(n > 100, np.log(m / m[min(100, idx.size - 1)]), np.nan)
+        out[idx] = np.column_stack([np.log(m / mean), spread, np.cumsum(dv), 0.1 * np.cumsum(accelerating), starts,
+                                    since_10s])
+    return out
+
+
 def score(planning: np.ndarray, truth: np.ndarray, seed: np.ndarray) -> dict[str, float]:
     """Uncovered steps, tracks with a step > 1 % light, and the planning mass's pessimism (median, p10)."""
     r = planning / truth
@@ -158,6 +177,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quantiles", type=float, nargs="+", default=[0.95, 0.98, 0.99, 0.995, 0.998])
     ap.add_argument("--sizes", type=int, nargs="*", default=[100, 200],
                     help="also fit on the first N training tracks only (does more data help?)")
+    ap.add_argument("--history", action="store_true",
+                    help="also give the learner six features of the whole track so far (history_features)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--cache", type=Path, default=Path("runs/learned_margin/steps.npz"))
     ap.add_argument("--out", type=Path, default=Path("results/rl/learned_margin"))
@@ -172,6 +193,8 @@ def main(argv: list[str] | None = None) -> int:
     source = f"read from {args.cache}" if cached else "driven"
     print(f"{source} in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     x, y = features(d), np.log(d["true_mass_kg"] / d["mass_kg"])
+    if args.history:
+        x = np.column_stack([x, history_features(d)])
     seed, m, s, truth = d["seed"], d["mass_kg"], d["mass_std_kg"], d["true_mass_kg"]
     after = d["t_s"] >= WARMUP_S
     va = after & (seed >= args.train)
@@ -199,7 +222,8 @@ def main(argv: list[str] | None = None) -> int:
     lines = [f"Command: `{cmd.strip()}`", "",
              f"Observer `{args.observer}`; {n_train} training tracks (seeds 0–{args.train - 1}), {args.validate} "
              f"validation tracks (seeds {args.train}–{args.train + args.validate - 1}); {int(va.sum())} validation "
-             f"steps after t ≥ {WARMUP_S:g} s.", "",
+             f"steps after t ≥ {WARMUP_S:g} s; {x.shape[1]} features"
+             f"{' (with the track history)' if args.history else ''}.", "",
              "| planning mass | uncovered steps (truth heavier) | tracks with a step > 1 % light | pessimism: median | "
              "p10 | M̂ + kσ at the same uncovered fraction: pessimism |",
              "| --- | --- | --- | --- | --- | --- |"]

@@ -48,6 +48,20 @@ def test_features_turn_a_zero_sigma_or_a_missing_mu_into_missing_values_not_infi
     assert np.isnan(x[:, 1]).all() and np.isfinite(x[:, 0]).all()
 
 
+def test_history_features_are_causal_and_count_the_accelerations():
+    n = 150
+    v = np.concatenate([np.linspace(0, 1, 50), np.ones(50), np.linspace(1, 2, 50)])  # two accelerations
+    d = {c: np.zeros(n) for c in lm.COLUMNS}
+    d.update(seed=np.zeros(n), mass_kg=np.linspace(2e4, 3e4, n), speed_mps=v)
+    h = lm.history_features(d)
+    assert h.shape == (n, 6)
+    assert h[-1, 4] == 2 and h[60, 4] == 1  # separate accelerations so far
+    assert np.isnan(h[:100, 5]).all() and np.isfinite(h[101:, 5]).all()  # the change since 10 s exists after 10 s
+    later = dict(d, mass_kg=d["mass_kg"].copy())
+    later["mass_kg"][120:] *= 2
+    np.testing.assert_array_equal(lm.history_features(later)[:120], h[:120])
+
+
 def test_k_sigma_at_interpolates_the_curve():
     curve = [(1.0, {"uncovered": 0.2, "median": 0.02}), (2.0, {"uncovered": 0.02, "median": 0.06})]
     k, med = lm.k_sigma_at(0.11, curve)

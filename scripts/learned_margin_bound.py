@@ -24,6 +24,7 @@ Writes ``summary.md`` and ``tradeoff.png`` to ``--out``; the per-step rows are c
 from __future__ import annotations
 
 import argparse
+import math
 import multiprocessing
 import sys
 import time
@@ -36,6 +37,8 @@ COLUMNS = ("seed", "t_s", "mass_kg", "mass_std_kg", "true_mass_kg", "planning_ma
            "slope_std_rad", "position_m", "grade_gap_rad", "mu", "mu_std", "nis")
 WARMUP_S = 8.0
 LIGHT_TOLERANCE = 0.01
+LAG_STEPS, RANGE_STEPS = 50, 150
+"""The estimate's change over 5 s and its range over 15 s, in 10 Hz policy steps."""
 K_GRID = np.round(np.arange(0.0, 4.01, 0.05), 2)
 TABLE_KS = (1.0, 1.5, 2.0, 2.5, 3.0)
 
@@ -118,8 +121,8 @@ def _columns(d: dict[str, np.ndarray], m: np.ndarray) -> np.ndarray:
     return np.column_stack([
         np.minimum(d["t_s"], 300.0), np.log(d["mass_std_kg"] / m), m / 1000.0, d["slope_rad"], d["slope_std_rad"],
         d["speed_mps"], d["position_m"], d["grade_gap_rad"], d["mu"], np.log(d["mu_std"]), np.log(d["nis"] + 1e-9),
-        np.log(m / _lagged(d["seed"], m, 50, "lag")), np.log(_lagged(d["seed"], m, 150, "max") / m),
-        np.log(m / _lagged(d["seed"], m, 150, "min")),
+        np.log(m / _lagged(d["seed"], m, LAG_STEPS, "lag")), np.log(_lagged(d["seed"], m, RANGE_STEPS, "max") / m),
+        np.log(m / _lagged(d["seed"], m, RANGE_STEPS, "min")),
     ])
 
 
@@ -139,6 +142,98 @@ def history_features(d: dict[str, np.ndarray]) -> np.ndarray:
         since_10s = np.where(n > 100, np.log(m / m[min(100, idx.size - 1)]), np.nan)
         out[idx] = np.column_stack([np.log(m / mean), spread, np.cumsum(dv), 0.1 * np.cumsum(accelerating), starts,
                                     since_10s])
+    return out
+
+
+def _learned_margin_controller(vehicle: Any, model: Any, history: bool) -> Any:
+    """The rule-based controller planning with ``M_hat * exp(q(features))`` (the learned quantile) instead of
+    ``M_hat + k sigma`` and its 15 s memory; warm-up, margins, cross-check and tracking unchanged. The features are
+    computed by :func:`features` on the track's steps so far, exactly as in training."""
+    from agents.controllers.rule_based import RuleBasedController
+    from uuom_core.units import clamp
+
+    class LearnedMarginController(RuleBasedController):
+        name = "rule-based, learned mass margin"
+
+        def reset(self, env: Any = None, info: Any = None) -> None:
+            super().reset(env, info)
+            self._steps: list[tuple[float, ...]] = []
+            self._info: Any = info or {}
+            self._planned: float | None = None
+
+        def act(self, obs: Any, info: Any) -> np.ndarray:
+            self._info, self._planned = info, None
+            return super().act(obs, info)
+
+        def _pessimistic_mass_now(self, x: Any) -> float:
+            if self._planned is None:  # once per step: called again by pessimistic()
+                gap = self.model_free_slope_rad
+                extras = self._info.get("est_extras") or {}
+                self._steps.append((0.0, float(self._info.get("t_s", self._t_s)), x.est_mass_kg, x.est_mass_std_kg,
+                                    np.nan, np.nan, x.speed_mps, x.est_slope_rad, x.est_slope_std_rad, x.position_m,
+                                    0.0 if gap is None else gap - x.est_slope_rad, extras.get("mu", np.nan),
+                                    extras.get("mu_std", np.nan), extras.get("nis", np.nan)))
+                steps = np.asarray(self._steps, dtype=float)
+                # the 5 s lag and 15 s range need only the last 151 steps (a full history would make a track O(n²))
+                recent = {c: v for c, v in zip(COLUMNS, steps[-(RANGE_STEPS + 1):].T)}
+                feats = features(recent)[-1:]
+                if history:
+                    whole = {c: v for c, v in zip(COLUMNS, steps.T)}
+                    feats = np.column_stack([feats, history_features(whole)[-1:]])
+                q = float(model.predict(feats)[0])
+                v = self.vehicle
+                self._planned = clamp(x.est_mass_kg * math.exp(q), v.empty_mass_kg, v.max_mass_kg)
+            return self._planned
+
+    return LearnedMarginController(vehicle, memory_s=0.0)
+
+
+def drive(job: tuple[int, str, Any, bool]) -> dict[str, Any]:
+    """One held-out track: the default rule-based controller (``model`` None) or the learned-margin one."""
+    import gymnasium as gym
+
+    import uuom_gym  # noqa: F401 - registers the env
+    from agents.controllers.rule_based import RuleBasedController
+    from agents.metrics import EpisodeAccumulator
+
+    from threadpoolctl import threadpool_limits
+
+    seed, observer, model, history = job
+    threadpool_limits(1)  # one-row predictions: OpenMP threads only add overhead, and the workers share the cores
+    env = gym.make("UUOM-Track-v0", observer=observer)
+    vehicle = env.unwrapped.vehicle
+    ctrl = RuleBasedController(vehicle) if model is None else _learned_margin_controller(vehicle, model, history)
+    obs, info = env.reset(seed=seed)
+    ctrl.reset(env, info)
+    acc = EpisodeAccumulator()
+    acc.start(info)
+    while True:
+        obs, _, term, trunc, info = env.step(ctrl.act(obs, info))
+        acc.add(info)
+        if term or trunc:
+            break
+    env.close()
+    return acc.finish(info).flat() | {"seed": seed, "learned": model is not None}
+
+
+def paired_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """Markdown rows: each controller's trips, cost rate, speed-violating tracks; the paired trip-time ratio."""
+    from agents.statistics import bootstrap_ci
+
+    out = []
+    by = {flag: {r["seed"]: r for r in rows if r["learned"] is flag} for flag in (False, True)}
+    seeds = sorted(set(by[False]) & set(by[True]))
+    both = [s for s in seeds if by[False][s]["success"] and by[True][s]["success"]]
+    ratio = np.array([by[True][s]["trip_time_s"] / by[False][s]["trip_time_s"] for s in both])
+    lo, hi = bootstrap_ci(ratio, np.mean) if ratio.size else (np.nan, np.nan)
+    for flag, name in ((False, "rule-based default (2σ, 15 s memory)"), (True, "rule-based, learned mass margin")):
+        rs = [by[flag][s] for s in seeds]
+        rate = sum(r["cost"] for r in rs) / max(sum(r["steps"] for r in rs), 1)
+        viol = sum(r["violations/speed_limit"] > 0 for r in rs)
+        paired = "1" if not flag else (f"{ratio.mean():.3f} ({lo:.3f}–{hi:.3f}), faster on {int((ratio < 1).sum())}"
+                                       if ratio.size else "–")
+        out.append(f"| {name} | {sum(r['success'] for r in rs)}/{len(rs)} | {sum(r['overspeed_trip'] for r in rs)} | "
+                   f"{rate:.2e} | {viol} | {paired} |")
     return out
 
 
@@ -179,6 +274,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="also fit on the first N training tracks only (does more data help?)")
     ap.add_argument("--history", action="store_true",
                     help="also give the learner six features of the whole track so far (history_features)")
+    ap.add_argument("--drive", type=int, default=0, metavar="N",
+                    help="also drive the first N held-out tracks (seeds 100000…) with the rule-based controller "
+                         "planning with the learned quantile --drive-quantile (full training set), paired against "
+                         "the default")
+    ap.add_argument("--drive-quantile", type=float, default=0.998)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--cache", type=Path, default=Path("runs/learned_margin/steps.npz"))
     ap.add_argument("--out", type=Path, default=Path("results/rl/learned_margin"))
@@ -187,6 +287,8 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--train and --validate must be >= 1")
     if any(not 0.0 < q < 1.0 for q in args.quantiles):
         ap.error("--quantiles must lie in (0, 1)")
+    if args.drive and args.drive_quantile not in args.quantiles:
+        ap.error("--drive-quantile must be one of --quantiles")
 
     t0 = time.perf_counter()
     d, cached = collect(range(args.train + args.validate), args.observer, args.workers, args.cache)
@@ -208,10 +310,13 @@ def main(argv: list[str] | None = None) -> int:
                                                        val(d["planning_mass_kg"]), "")]
     rows += [(f"M̂ + {k:g} σ", val(m + k * s), "") for k in TABLE_KS]
     learned: list[tuple[int, float, dict[str, float]]] = []
+    drive_model = None
     for n in sorted({*[n for n in args.sizes if n < args.train], args.train}):
         tr = after & (seed < n)
         for q in args.quantiles:
             model = fit_quantile(x[tr], y[tr], q)
+            if n == args.train and q == args.drive_quantile:
+                drive_model = model
             sc = val(np.exp(model.predict(x)) * m)
             learned.append((n, q, sc))
             k, med = k_sigma_at(sc["uncovered"], curve)
@@ -230,6 +335,16 @@ def main(argv: list[str] | None = None) -> int:
     for name, sc, cmp_ in rows:
         lines.append(f"| {name} | {100 * sc['uncovered']:.2f} % | {100 * sc['tracks_light']:.0f} % | "
                      f"{100 * sc['median']:+.1f} % | {100 * sc['p10']:+.1f} % | {cmp_ or '–'} |")
+    if args.drive:
+        jobs = [(100_000 + i, args.observer, mdl, args.history) for i in range(args.drive)
+                for mdl in (None, drive_model)]
+        with multiprocessing.get_context("spawn").Pool(max(args.workers, 1)) as pool:
+            driven = pool.map(drive, jobs, chunksize=1)
+        lines += ["", f"Driven on held-out tracks 100000–{100_000 + args.drive - 1} (quantile "
+                      f"{args.drive_quantile:g}, {args.train} training tracks; memory off, warm-up kept):", "",
+                  "| controller | arrived | overspeed trips | cost rate | tracks with a speed-limit violation | "
+                  "trip time / default, paired mean (95 % CI) |", "| --- | --- | --- | --- | --- | --- |"]
+        lines += paired_lines(driven)
     (args.out / "summary.md").write_text("\n".join(lines) + "\n")
     _plot(curve, learned, rows[0][1], args.out / "tradeoff.png")
     print("\n".join(lines))

@@ -62,6 +62,17 @@ def test_history_features_are_causal_and_count_the_accelerations():
     np.testing.assert_array_equal(lm.history_features(later)[:120], h[:120])
 
 
+def test_online_features_from_the_last_steps_equal_the_training_features():
+    rng = np.random.default_rng(0)
+    n = 400
+    d = {c: rng.uniform(0.5, 1.5, n) for c in lm.COLUMNS}
+    d.update(seed=np.zeros(n), mass_kg=rng.uniform(2e4, 3e4, n), t_s=np.arange(n) * 0.1)
+    full = lm.features(d)
+    for end in (10, 151, 152, 400):  # what the controller computes at step `end`: only the last 151 steps
+        recent = {c: v[max(end - lm.RANGE_STEPS - 1, 0):end] for c, v in d.items()}
+        np.testing.assert_allclose(lm.features(recent)[-1], full[end - 1])
+
+
 def test_k_sigma_at_interpolates_the_curve():
     curve = [(1.0, {"uncovered": 0.2, "median": 0.02}), (2.0, {"uncovered": 0.02, "median": 0.06})]
     k, med = lm.k_sigma_at(0.11, curve)
@@ -74,6 +85,9 @@ def test_bad_arguments_are_refused_before_any_episode(capsys, tmp_path):
     assert exc.value.code == 2 and "--train and --validate must be >= 1" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         lm.main(["--quantiles", "1.5", "--out", str(tmp_path)])
+    with pytest.raises(SystemExit) as exc:
+        lm.main(["--drive", "3", "--quantiles", "0.9", "--drive-quantile", "0.99", "--out", str(tmp_path)])
+    assert "--drive-quantile must be one of --quantiles" in capsys.readouterr().err
 
 
 def test_end_to_end_on_three_tracks_writes_the_table_and_reuses_its_cache(tmp_path):
@@ -91,3 +105,26 @@ def test_end_to_end_on_three_tracks_writes_the_table_and_reuses_its_cache(tmp_pa
     before = (tmp_path / "steps.npz").stat().st_mtime_ns
     assert lm.main(args) == 0
     assert (tmp_path / "steps.npz").stat().st_mtime_ns == before  # cached: no episode run again
+
+
+def test_paired_lines_pair_by_track_and_price_cost_per_step():
+    def row(seed, learned, t, cost, steps, viol=0):
+        return {"seed": seed, "learned": learned, "trip_time_s": t, "success": True, "overspeed_trip": False,
+                "cost": cost, "steps": steps, "violations/speed_limit": viol}
+    rows = [row(1, False, 100.0, 0.0, 1000), row(2, False, 200.0, 1.0, 2000, 3),
+            row(1, True, 90.0, 2.0, 900, 5), row(2, True, 220.0, 0.0, 2200)]
+    default, learned = lm.paired_lines(rows)
+    assert "| 2/2 | 0 | 3.33e-04 | 1 | 1 |" in default  # 1 cost over 3000 steps, one violating track
+    assert "| 2/2 | 0 | 6.45e-04 | 1 | 1.000 (" in learned and "faster on 1" in learned  # (0.9 + 1.1) / 2
+
+
+def test_the_learned_margin_controller_plans_with_the_model_and_drives_a_track():
+    class Constant:  # a "model" that always answers log(1.1): plan 10 % above the estimate
+        def predict(self, x):
+            assert x.shape == (1, 14) and np.isfinite(x[0, 0])
+            return np.full(1, np.log(1.1))
+
+    row = lm.drive((100000, "dffrls-aekf", Constant(), False))
+    assert row["learned"] and row["success"] and row["steps"] > 100
+    ctrl = lm._learned_margin_controller(VehicleParams(), Constant(), False)
+    assert ctrl.memory_s == 0.0

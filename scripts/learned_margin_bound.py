@@ -19,6 +19,8 @@ pessimistic the planning mass is (``planning / true − 1``: median, p10). Compa
     python scripts/learned_margin_bound.py --train 400 --validate 100 --workers 2 --out results/rl/learned_margin
 
 Writes ``summary.md`` and ``tradeoff.png`` to ``--out``; the per-step rows are cached in ``--cache`` (not committed).
+``--drive N`` then checks the proxy on the metric: the rule-based controller planning with one learned quantile (in
+place of ``M_hat + 2 sigma`` and the memory) against the default on the first N held-out tracks, paired per track.
 """
 
 from __future__ import annotations

@@ -117,4 +117,18 @@ class EpisodeAccumulator:
         )
 
 
-__all__ = ["EpisodeAccumulator", "EpisodeSummary", "RULES"]
+def drive_episode(env: Any, controller: Any, seed: int) -> tuple[EpisodeSummary, dict[str, Any]]:
+    """Reset ``env`` with ``seed``, drive it with ``controller`` (``reset(env, info)``, ``act(obs, info)``) to the
+    end of the episode; return its summary and the last step's info."""
+    obs, info = env.reset(seed=seed)
+    controller.reset(env, info)
+    acc = EpisodeAccumulator()
+    acc.start(info)
+    while True:
+        obs, _, term, trunc, info = env.step(controller.act(obs, info))
+        acc.add(info)
+        if term or trunc:
+            return acc.finish(info), info
+
+
+__all__ = ["EpisodeAccumulator", "EpisodeSummary", "RULES", "drive_episode"]

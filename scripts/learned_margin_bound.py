@@ -196,7 +196,7 @@ def drive(job: tuple[int, str, Any, bool]) -> dict[str, Any]:
 
     import uuom_gym  # noqa: F401 - registers the env
     from agents.controllers.rule_based import RuleBasedController
-    from agents.metrics import EpisodeAccumulator
+    from agents.metrics import drive_episode
 
     from threadpoolctl import threadpool_limits
 
@@ -205,17 +205,9 @@ def drive(job: tuple[int, str, Any, bool]) -> dict[str, Any]:
     env = gym.make("UUOM-Track-v0", observer=observer)
     vehicle = env.unwrapped.vehicle
     ctrl = RuleBasedController(vehicle) if model is None else _learned_margin_controller(vehicle, model, history)
-    obs, info = env.reset(seed=seed)
-    ctrl.reset(env, info)
-    acc = EpisodeAccumulator()
-    acc.start(info)
-    while True:
-        obs, _, term, trunc, info = env.step(ctrl.act(obs, info))
-        acc.add(info)
-        if term or trunc:
-            break
+    summary, _ = drive_episode(env, ctrl, seed)
     env.close()
-    return acc.finish(info).flat() | {"seed": seed, "learned": model is not None}
+    return summary.flat() | {"seed": seed, "learned": model is not None}
 
 
 def paired_lines(rows: list[dict[str, Any]]) -> list[str]:

@@ -20,7 +20,7 @@ from agents.controllers import (
     control_input_from_obs,
     force_to_command,
 )
-from agents.metrics import EpisodeAccumulator
+from agents.metrics import drive_episode
 from agents.speed_profile import ProfileError, min_time_profile
 from uuom_core.limits import speed_limit_mps
 from uuom_gym.sim.track import random_track
@@ -29,17 +29,6 @@ from uuom_core.vehicle import G_MPS2
 
 SHORT = {"track_length_m": (60.0, 120.0)}
 
-
-def _drive(env, ctrl, seed):
-    obs, info = env.reset(seed=seed)
-    ctrl.reset(env, info)
-    acc = EpisodeAccumulator()
-    acc.start(info)
-    while True:
-        obs, _, term, trunc, info = env.step(ctrl.act(obs, info))
-        acc.add(info)
-        if term or trunc:
-            return acc.finish(info), info
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -87,7 +76,7 @@ def test_force_to_command_matches_plant_convention():
 @pytest.mark.parametrize("seed", [11, 12, 13])
 def test_oracle_controller_never_breaks_a_rule(seed):
     env = gym.make("UUOM-Track-v0", observer="oracle", **SHORT)
-    summary, info = _drive(env, OracleController(env.unwrapped.vehicle), seed)
+    summary, info = drive_episode(env, OracleController(env.unwrapped.vehicle), seed)
     assert summary.success, summary.termination
     assert summary.violations == {r: 0 for r in summary.violations}, summary.violations
     assert summary.cost == 0.0
@@ -97,15 +86,15 @@ def test_oracle_controller_never_breaks_a_rule(seed):
 def test_oracle_trip_time_matches_its_plan():
     env = gym.make("UUOM-Track-v0", observer="oracle", **SHORT)
     ctrl = OracleController(env.unwrapped.vehicle)
-    summary, _ = _drive(env, ctrl, 21)
+    summary, _ = drive_episode(env, ctrl, 21)
     assert summary.success
     assert summary.trip_time_s == pytest.approx(ctrl.profile.trip_time_s, rel=0.1)
 
 
 def test_rule_based_with_true_estimates_arrives_safely_and_not_faster_than_oracle():
     env = gym.make("UUOM-Track-v0", observer="oracle", **SHORT)
-    oracle, _ = _drive(env, OracleController(env.unwrapped.vehicle), 31)
-    rule, _ = _drive(env, RuleBasedController(env.unwrapped.vehicle), 31)
+    oracle, _ = drive_episode(env, OracleController(env.unwrapped.vehicle), 31)
+    rule, _ = drive_episode(env, RuleBasedController(env.unwrapped.vehicle), 31)
     assert oracle.success and rule.success
     assert not rule.overspeed_trip
     assert rule.trip_time_s >= 0.98 * oracle.trip_time_s
@@ -186,7 +175,7 @@ def test_rule_based_brakes_hard_when_the_slope_estimate_is_confidently_wrong():
 def test_rule_based_no_longer_trips_on_the_measured_runaway_episode():
     # Held-out seed 100000, dffrls-aekf: the rule-based controller tripped at 64 s on a -14 deg down-grade.
     env = gym.make("UUOM-Track-v0", observer="dffrls-aekf")
-    summary, _ = _drive(env, RuleBasedController(env.unwrapped.vehicle), 100000)
+    summary, _ = drive_episode(env, RuleBasedController(env.unwrapped.vehicle), 100000)
     assert not summary.overspeed_trip
     assert summary.success
 

@@ -45,6 +45,17 @@ K_GRID = np.round(np.arange(0.0, 4.01, 0.05), 2)
 TABLE_KS = (1.0, 1.5, 2.0, 2.5, 3.0)
 
 
+def observed_row(info: Any, x: Any, gap_from: float | None, seed: float = 0.0, true_mass_kg: float = np.nan,
+                 planning_mass_kg: float = np.nan) -> tuple[float, ...]:
+    """One step's row (``COLUMNS``) from the step's ``info``, the controller's input ``x`` and its model-free grade:
+    the same row in training (with the truth) and online (without), so that the features match."""
+    extras = info.get("est_extras") or {}
+    return (seed, float(info["t_s"]), x.est_mass_kg, x.est_mass_std_kg, true_mass_kg, planning_mass_kg, x.speed_mps,
+            x.est_slope_rad, x.est_slope_std_rad, x.position_m,
+            0.0 if gap_from is None else gap_from - x.est_slope_rad, extras.get("mu", np.nan),
+            extras.get("mu_std", np.nan), extras.get("nis", np.nan))
+
+
 def episode(job: tuple[int, str]) -> np.ndarray:
     """One track with the default rule-based controller; one row per policy step (``COLUMNS``)."""
     import gymnasium as gym
@@ -63,12 +74,7 @@ def episode(job: tuple[int, str]) -> np.ndarray:
         x = control_input_from_obs(obs, ctrl.vehicle, ctrl.track_length_m, ctrl.dt_s)
         cmd = ctrl.command(x)
         planning_mass, _ = ctrl.pessimistic(x)
-        gap = ctrl.model_free_slope_rad
-        extras = info.get("est_extras") or {}
-        rows.append((seed, info["t_s"], x.est_mass_kg, x.est_mass_std_kg, info["true_mass_kg"], planning_mass,
-                     x.speed_mps, x.est_slope_rad, x.est_slope_std_rad, x.position_m,
-                     0.0 if gap is None else gap - x.est_slope_rad, extras.get("mu", np.nan),
-                     extras.get("mu_std", np.nan), extras.get("nis", np.nan)))
+        rows.append(observed_row(info, x, ctrl.model_free_slope_rad, seed, info["true_mass_kg"], planning_mass))
         obs, _, term, trunc, info = env.step(np.array([cmd], dtype=np.float32))
         if term or trunc:
             break
@@ -169,12 +175,7 @@ def _learned_margin_controller(vehicle: Any, model: Any, history: bool) -> Any:
 
         def _pessimistic_mass_now(self, x: Any) -> float:
             if self._planned is None:  # once per step: called again by pessimistic()
-                gap = self.model_free_slope_rad
-                extras = self._info.get("est_extras") or {}
-                self._steps.append((0.0, float(self._info.get("t_s", self._t_s)), x.est_mass_kg, x.est_mass_std_kg,
-                                    np.nan, np.nan, x.speed_mps, x.est_slope_rad, x.est_slope_std_rad, x.position_m,
-                                    0.0 if gap is None else gap - x.est_slope_rad, extras.get("mu", np.nan),
-                                    extras.get("mu_std", np.nan), extras.get("nis", np.nan)))
+                self._steps.append(observed_row(self._info, x, self.model_free_slope_rad))
                 steps = np.asarray(self._steps, dtype=float)
                 # the 5 s lag and 15 s range need only the last 151 steps (a full history would make a track O(n²))
                 recent = {c: v for c, v in zip(COLUMNS, steps[-(RANGE_STEPS + 1):].T)}
@@ -193,12 +194,11 @@ def _learned_margin_controller(vehicle: Any, model: Any, history: bool) -> Any:
 def drive(job: tuple[int, str, Any, bool]) -> dict[str, Any]:
     """One held-out track: the default rule-based controller (``model`` None) or the learned-margin one."""
     import gymnasium as gym
+    from threadpoolctl import threadpool_limits
 
     import uuom_gym  # noqa: F401 - registers the env
     from agents.controllers.rule_based import RuleBasedController
     from agents.metrics import drive_episode
-
-    from threadpoolctl import threadpool_limits
 
     seed, observer, model, history = job
     threadpool_limits(1)  # one-row predictions: OpenMP threads only add overhead, and the workers share the cores

@@ -9,7 +9,10 @@ the online ``update()`` loop, label ``(update)``; one warm-up run first, so numb
 time of the process (one core; on the shared 2-core machine the wall clock also counts other people's jobs). For the
 comparison asked by issue 3, a :class:`filterpy.kalman.ExtendedKalmanFilter` runs the *same* 2-state ``[v, θ]``
 slope model (same mass, noise, Jacobian) as :class:`estimators.ekf.SlopeEKF` on the same trace, and the ratio is
-printed. Timings go here, never into tests.
+printed; and, for issue 10, the *whole* ``dffrls-aekf-paper`` model (both layers, the Sage-Husa adaptation and the
+guards) is run on filterpy's filters (:func:`filterpy_paper_method`) beside the estimator, with the largest
+difference of their estimates (the two are the same model: ~1e-12; ``tests/test_bench_estimator_speed.py``).
+Timings go here, never into tests.
 
 Usage::
 
@@ -121,6 +124,120 @@ def filterpy_slope_ekf(trace: Trace, mass_kg: float):
     return run
 
 
+def filterpy_paper_method(trace: Trace):
+    """The whole ``dffrls-aekf-paper`` model on filterpy: its DFFRLS mass layer as a :class:`filterpy.kalman.KalmanFilter`
+    (parameters as the state, ``F = I``, ``Q = 0``, ``R = 1``, the regressor as ``H`` and the fading-memory factor
+    ``alpha = 1/sqrt(lambda_k)``, which is exactly RLS with the forgetting factor ``lambda_k``), its Sage-Husa slope layer
+    as an :class:`~filterpy.kalman.ExtendedKalmanFilter` whose ``R``, ``Q`` and noise means are adapted around filterpy's
+    predict/update by the same recursions. The guards (input limits, PD repairs, clips) are the estimator's own
+    functions and constants, so the two differ only in who does the filtering: filterpy's numpy matrices or the
+    estimator's scalar code. Returns a function that runs the trace and gives ``(mass_kg, slope_rad)`` arrays."""
+    from filterpy.kalman import ExtendedKalmanFilter, KalmanFilter
+
+    from estimators.dffrls_aekf_paper import _SLOPE_OUT, DFFRLSAEKFPaper
+    from estimators.filters import effective_dt, repair_pd_2x2
+
+    ref = DFFRLSAEKFPaper(DEFAULT_VEHICLE)
+    g = G_MPS2
+    torque = trace["torque_nm"].tolist()
+    speed = trace["speed_mps"].tolist()
+    accel = trace["accel_mps2"].tolist()
+    t = trace["t_s"]
+    dts = np.diff(t, prepend=t[0] - (t[1] - t[0])).tolist()
+    hj = np.array([[1.0, 0.0]])
+
+    class AEKF(ExtendedKalmanFilter):
+        x_pred = None  # f(x) + q, computed outside (the Sage-Husa means are adapted there)
+
+        def predict_x(self, u=0):
+            self.x = self.x_pred
+
+    def mass_of(chi1: float) -> float:
+        return ref.m_max if not (chi1 > 1.0 / ref.m_max) else (ref.m_min if chi1 > 1.0 / ref.m_min else 1.0 / chi1)
+
+    def run() -> tuple[np.ndarray, np.ndarray]:
+        rls = KalmanFilter(dim_x=2, dim_z=1)
+        rls.x = np.array([[1.0 / ref.m0], [math.sin(ref.theta_mu)]])
+        rls.P = np.diag(ref.P0)
+        rls.Q = np.zeros((2, 2))
+        rls.R = np.eye(1)
+        ekf = AEKF(dim_x=2, dim_z=1)
+        ekf.P = np.diag([ref.R0, ref.P0_th])
+        ekf.Q = np.diag(ref.Q0)
+        F = np.eye(2)
+        v_known = False
+        R = ref.R0
+        q_v = q_th = r_mean = 0.0
+        bk1 = ref.b
+        last_torque = 0.0
+        H = np.zeros((1, 2))
+        out_m = np.empty(len(torque))
+        out_s = np.empty(len(torque))
+        for i in range(len(torque)):
+            dt = effective_dt(dts[i])
+            T, z, a = torque[i], speed[i], accel[i]
+            T = T if abs(T) <= ref.max_torque else math.nan
+            z = z if abs(z) <= 50.0 else math.nan
+            a = a if abs(a) <= 50.0 else math.nan
+            if dt > 0.0 and T == T and a == a:
+                H[0, 0] = T / ref.r - ref.m_rot * a
+                H[0, 1] = ref.phi2
+                e = a - (H @ rls.x).item()
+                lam = ref.delta + (1.0 - ref.delta) * math.exp(-ref.sigma * abs(e))
+                rls.alpha = 1.0 / math.sqrt(lam)
+                rls.predict()
+                rls.update(np.array([[a]]), H=H)
+                c11, c12, c22 = repair_pd_2x2(rls.P[0, 0], rls.P[0, 1], rls.P[1, 1], 1e-30, 1e-30, 1e30, 1e30)
+                rls.P = np.array([[c11, c12], [c12, c22]])
+            mass = mass_of(float(rls.x[0, 0]))
+            if dt > 0.0 and not v_known:
+                if z == z:
+                    ekf.x = np.array([[z], [0.0]])
+                    v_known = True
+            elif dt > 0.0:
+                gamma = 1.0 + ref.m_rot / mass
+                P_old = ekf.P.copy()
+                F[0, 1] = -dt * g / gamma
+                fv = ekf.x[0, 0] + dt * (last_torque / (ref.r * mass * gamma) - ref.mu * g / gamma
+                                         - g * ekf.x[1, 0] / gamma)
+                fth = ekf.x[1, 0]
+                ekf.F = F
+                ekf.x_pred = np.array([[fv + q_v], [fth + q_th]])
+                ekf.predict()
+                if z == z:
+                    d = (1.0 - ref.b) / (1.0 - bk1)
+                    bk1 *= ref.b
+                    innov = z - ekf.x[0, 0]
+                    eps = innov - r_mean
+                    r_new = (1.0 - d) * R + d * (eps * eps - ekf.P[0, 0])
+                    if not (r_new > 0.0):
+                        r_new = (1.0 - d) * R + d * eps * eps
+                    R = max(r_new, 1e-12)
+                    ekf.update(np.array([[z]]), lambda x: hj, lambda x: np.array([[x[0, 0] + r_mean]]), R=R)
+                    r_mean = (1.0 - d) * r_mean + d * innov
+                    n11, n12, n22 = repair_pd_2x2(ekf.P[0, 0], ekf.P[0, 1], ekf.P[1, 1], 1e-14, 1e-14)
+                    fp = F @ P_old @ F.T
+                    k1, k2 = ekf.K[0, 0], ekf.K[1, 0]
+                    e2 = eps * eps
+                    q11, q12, q22 = repair_pd_2x2(
+                        (1.0 - d) * ekf.Q[0, 0] + d * (k1 * k1 * e2 + n11 - fp[0, 0]),
+                        (1.0 - d) * ekf.Q[0, 1] + d * (k1 * k2 * e2 + n12 - fp[0, 1]),
+                        (1.0 - d) * ekf.Q[1, 1] + d * (k2 * k2 * e2 + n22 - P_old[1, 1]), 1e-14, 1e-14, 1.0, 1.0)
+                    ekf.Q = np.array([[q11, q12], [q12, q22]])
+                    q_v = (1.0 - d) * q_v + d * (ekf.x[0, 0] - fv)
+                    q_th = (1.0 - d) * q_th + d * (ekf.x[1, 0] - fth)
+                else:
+                    n11, n12, n22 = repair_pd_2x2(ekf.P[0, 0], ekf.P[0, 1], ekf.P[1, 1], 1e-14, 1e-14)
+                ekf.P = np.array([[n11, n12], [n12, min(n22, 1e6)]])
+            if dt > 0.0 and T == T:
+                last_torque = T
+            out_m[i] = mass
+            out_s[i] = min(max(ekf.x[1, 0], -_SLOPE_OUT), _SLOPE_OUT)
+        return out_m, out_s
+
+    return run
+
+
 def slope_ekf_plain(trace: Trace, mass_kg: float):
     torque = trace["torque_nm"].tolist()
     speed = trace["speed_mps"].tolist()
@@ -184,6 +301,20 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  filterpy ExtendedKalmanFilter : {t_fp:7.3f} s  {n / t_fp:9.0f} samples/s")
     print(f"  estimators.ekf.SlopeEKF       : {t_pl:7.3f} s  {n / t_pl:9.0f} samples/s")
     print(f"  ratio filterpy / plain floats : {t_fp / t_pl:.1f} x   (max |slope difference| after 2 s: {math.degrees(dev):.1e} deg)")
+    # the whole paper model (both layers, Sage-Husa adaptation, guards) on filterpy vs the estimator's scalar code
+    fpw = filterpy_paper_method(trace)
+    paper = estimators.make("dffrls-aekf-paper")
+    m_fp, th_fp = fpw()
+    ser = paper.run(trace)
+    t_fpw = best_time(fpw, args.repeat)
+    t_pap = best_time(lambda: paper.run(trace), args.repeat)
+    dm = float(np.max(np.abs(m_fp / ser.mass_kg - 1.0)))
+    dth = float(np.max(np.abs(np.degrees(th_fp) - ser.slope_deg)))
+    print("\nwhole dffrls-aekf-paper model (DFFRLS mass + Sage-Husa AEKF slope, guards included), same trace:")
+    print(f"  filterpy KalmanFilter + ExtendedKalmanFilter : {t_fpw:7.3f} s  {n / t_fpw:9.0f} samples/s")
+    print(f"  estimators dffrls-aekf-paper (plain floats)  : {t_pap:7.3f} s  {n / t_pap:9.0f} samples/s")
+    print(f"  ratio filterpy / plain floats : {t_fpw / t_pap:.1f} x   (max relative mass difference {dm:.1e}, "
+          f"max slope difference {dth:.1e} deg)")
     return 0
 
 

@@ -136,7 +136,7 @@ class RuleBasedController(SpeedController):
         if self._t_s < self.warmup_s:
             mass = max(mass, v.rated_mass_kg)
         slope = x.est_slope_rad - self.k_sigma * x.est_slope_std_rad - self.slope_margin_rad
-        mf = self._grade_check.slope_rad
+        mf = self.model_free_slope_rad
         if mf is not None:
             # Worst case of the estimator and the model-free grade: a confidently wrong estimate must not
             # raise the speed limit on a down-grade.
@@ -150,7 +150,7 @@ class RuleBasedController(SpeedController):
 
     def feedforward_slope_rad(self, x: ControlInput) -> float:
         """Grade used for the force feed-forward: the estimate, unless the model-free grade disagrees."""
-        mf = self._grade_check.slope_rad
+        mf = self.model_free_slope_rad
         if self.feedforward_cross_check and mf is not None and abs(mf - x.est_slope_rad) > self.cross_check_margin_rad:
             return mf
         return x.est_slope_rad

@@ -131,8 +131,19 @@ class DFFRLSAEKFPaper(Estimator):
     # mass layer --------------------------------------------------------------------------------------------------
     @property
     def mass_kg(self) -> float:
-        c = self.chi1
-        return self.m_max if not (c > 1.0 / self.m_max) else (self.m_min if c > 1.0 / self.m_min else 1.0 / c)
+        return self.mass_from_chi1(self.chi1)
+
+    def mass_from_chi1(self, chi1: float) -> float:
+        """The reported mass for the parameter ``chi1 = 1/M``: ``1/chi1`` clipped to the vehicle's mass range (a guard:
+        ``chi1`` can be zero or negative)."""
+        return self.m_max if not (chi1 > 1.0 / self.m_max) else (self.m_min if chi1 > 1.0 / self.m_min else 1.0 / chi1)
+
+    def plausible_inputs(self, torque_nm: float, speed_mps: float, accel_mps2: float) -> tuple[float, float, float]:
+        """The inputs as floats, each beyond any physical value (|T| > 10x the maximum drive torque, |v| > 50 m/s,
+        |a| > 50 m/s²) replaced by NaN, i.e. counted as missing (a guard)."""
+        T, z, a = float(torque_nm), float(speed_mps), float(accel_mps2)
+        return (T if abs(T) <= self.max_torque else math.nan, z if abs(z) <= 50.0 else math.nan,
+                a if abs(a) <= 50.0 else math.nan)
 
     def _dffrls(self, T: float, a: float) -> None:
         f1 = T / self.r - self.m_rot * a
@@ -217,10 +228,7 @@ class DFFRLSAEKFPaper(Estimator):
         dt = effective_dt(dt_s)
         if dt == 0.0:
             return self.estimate
-        T, z, a = float(torque_nm), float(speed_mps), float(accel_mps2)
-        T = T if abs(T) <= self.max_torque else math.nan
-        z = z if abs(z) <= 50.0 else math.nan
-        a = a if abs(a) <= 50.0 else math.nan
+        T, z, a = self.plausible_inputs(torque_nm, speed_mps, accel_mps2)
         if T == T and a == a:
             self._dffrls(T, a)
         self._aekf(z, dt, self.mass_kg)

@@ -30,7 +30,7 @@ import time
 import numpy as np
 
 import estimators
-from estimators.base import Estimator
+from estimators.base import Estimator, first_step_dts
 from estimators.ekf import SlopeEKF
 from uuom_core.trace import Trace
 from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
@@ -89,8 +89,7 @@ def filterpy_slope_ekf(trace: Trace, mass_kg: float):
 
     torque = trace["torque_nm"].tolist()
     speed = trace["speed_mps"].tolist()
-    t = trace["t_s"]
-    dts = np.diff(t, prepend=t[0] - (t[1] - t[0])).tolist()
+    dts = first_step_dts(trace["t_s"]).tolist()
 
     def run() -> np.ndarray:
         f = SlopeEKFfp(dim_x=2, dim_z=1)
@@ -129,9 +128,10 @@ def filterpy_paper_method(trace: Trace):
     (parameters as the state, ``F = I``, ``Q = 0``, ``R = 1``, the regressor as ``H`` and the fading-memory factor
     ``alpha = 1/sqrt(lambda_k)``, which is exactly RLS with the forgetting factor ``lambda_k``), its Sage-Husa slope layer
     as an :class:`~filterpy.kalman.ExtendedKalmanFilter` whose ``R``, ``Q`` and noise means are adapted around filterpy's
-    predict/update by the same recursions. The guards (input limits, PD repairs, clips) are the estimator's own
-    functions and constants, so the two differ only in who does the filtering: filterpy's numpy matrices or the
-    estimator's scalar code. Returns a function that runs the trace and gives ``(mass_kg, slope_rad)`` arrays."""
+    predict/update by the same recursions. The guards that act on normal and faulty data (input limits, PD repairs,
+    the mass and slope clips) are the estimator's own functions and constants, so the two differ only in who does the
+    filtering: filterpy's numpy matrices or the estimator's scalar code; the estimator's last resort, restarting a
+    layer whose state became non-finite, is not mirrored. Returns a function that runs the trace and gives ``(mass_kg, slope_rad)`` arrays."""
     from filterpy.kalman import ExtendedKalmanFilter, KalmanFilter
 
     from estimators.dffrls_aekf_paper import _SLOPE_OUT, DFFRLSAEKFPaper
@@ -142,8 +142,7 @@ def filterpy_paper_method(trace: Trace):
     torque = trace["torque_nm"].tolist()
     speed = trace["speed_mps"].tolist()
     accel = trace["accel_mps2"].tolist()
-    t = trace["t_s"]
-    dts = np.diff(t, prepend=t[0] - (t[1] - t[0])).tolist()
+    dts = first_step_dts(trace["t_s"]).tolist()
     hj = np.array([[1.0, 0.0]])
 
     class AEKF(ExtendedKalmanFilter):
@@ -151,9 +150,6 @@ def filterpy_paper_method(trace: Trace):
 
         def predict_x(self, u=0):
             self.x = self.x_pred
-
-    def mass_of(chi1: float) -> float:
-        return ref.m_max if not (chi1 > 1.0 / ref.m_max) else (ref.m_min if chi1 > 1.0 / ref.m_min else 1.0 / chi1)
 
     def run() -> tuple[np.ndarray, np.ndarray]:
         rls = KalmanFilter(dim_x=2, dim_z=1)
@@ -175,63 +171,61 @@ def filterpy_paper_method(trace: Trace):
         out_s = np.empty(len(torque))
         for i in range(len(torque)):
             dt = effective_dt(dts[i])
-            T, z, a = torque[i], speed[i], accel[i]
-            T = T if abs(T) <= ref.max_torque else math.nan
-            z = z if abs(z) <= 50.0 else math.nan
-            a = a if abs(a) <= 50.0 else math.nan
-            if dt > 0.0 and T == T and a == a:
-                H[0, 0] = T / ref.r - ref.m_rot * a
-                H[0, 1] = ref.phi2
-                e = a - (H @ rls.x).item()
-                lam = ref.delta + (1.0 - ref.delta) * math.exp(-ref.sigma * abs(e))
-                rls.alpha = 1.0 / math.sqrt(lam)
-                rls.predict()
-                rls.update(np.array([[a]]), H=H)
-                c11, c12, c22 = repair_pd_2x2(rls.P[0, 0], rls.P[0, 1], rls.P[1, 1], 1e-30, 1e-30, 1e30, 1e30)
-                rls.P = np.array([[c11, c12], [c12, c22]])
-            mass = mass_of(float(rls.x[0, 0]))
-            if dt > 0.0 and not v_known:
-                if z == z:
-                    ekf.x = np.array([[z], [0.0]])
-                    v_known = True
-            elif dt > 0.0:
-                gamma = 1.0 + ref.m_rot / mass
-                P_old = ekf.P.copy()
-                F[0, 1] = -dt * g / gamma
-                fv = ekf.x[0, 0] + dt * (last_torque / (ref.r * mass * gamma) - ref.mu * g / gamma
-                                         - g * ekf.x[1, 0] / gamma)
-                fth = ekf.x[1, 0]
-                ekf.F = F
-                ekf.x_pred = np.array([[fv + q_v], [fth + q_th]])
-                ekf.predict()
-                if z == z:
-                    d = (1.0 - ref.b) / (1.0 - bk1)
-                    bk1 *= ref.b
-                    innov = z - ekf.x[0, 0]
-                    eps = innov - r_mean
-                    r_new = (1.0 - d) * R + d * (eps * eps - ekf.P[0, 0])
-                    if not (r_new > 0.0):
-                        r_new = (1.0 - d) * R + d * eps * eps
-                    R = max(r_new, 1e-12)
-                    ekf.update(np.array([[z]]), lambda x: hj, lambda x: np.array([[x[0, 0] + r_mean]]), R=R)
-                    r_mean = (1.0 - d) * r_mean + d * innov
-                    n11, n12, n22 = repair_pd_2x2(ekf.P[0, 0], ekf.P[0, 1], ekf.P[1, 1], 1e-14, 1e-14)
-                    fp = F @ P_old @ F.T
-                    k1, k2 = ekf.K[0, 0], ekf.K[1, 0]
-                    e2 = eps * eps
-                    q11, q12, q22 = repair_pd_2x2(
-                        (1.0 - d) * ekf.Q[0, 0] + d * (k1 * k1 * e2 + n11 - fp[0, 0]),
-                        (1.0 - d) * ekf.Q[0, 1] + d * (k1 * k2 * e2 + n12 - fp[0, 1]),
-                        (1.0 - d) * ekf.Q[1, 1] + d * (k2 * k2 * e2 + n22 - P_old[1, 1]), 1e-14, 1e-14, 1.0, 1.0)
-                    ekf.Q = np.array([[q11, q12], [q12, q22]])
-                    q_v = (1.0 - d) * q_v + d * (ekf.x[0, 0] - fv)
-                    q_th = (1.0 - d) * q_th + d * (ekf.x[1, 0] - fth)
+            if dt > 0.0:  # the estimator ignores a sample whose dt is not usable
+                T, z, a = ref.plausible_inputs(torque[i], speed[i], accel[i])
+                if T == T and a == a:
+                    H[0, 0] = T / ref.r - ref.m_rot * a
+                    H[0, 1] = ref.phi2
+                    e = a - (H @ rls.x).item()
+                    lam = ref.delta + (1.0 - ref.delta) * math.exp(-ref.sigma * abs(e))
+                    rls.alpha = 1.0 / math.sqrt(lam)
+                    rls.predict()
+                    rls.update(np.array([[a]]), H=H)
+                    c11, c12, c22 = repair_pd_2x2(rls.P[0, 0], rls.P[0, 1], rls.P[1, 1], 1e-30, 1e-30, 1e30, 1e30)
+                    rls.P = np.array([[c11, c12], [c12, c22]])
+                mass = ref.mass_from_chi1(float(rls.x[0, 0]))
+                if not v_known:
+                    if z == z:
+                        ekf.x = np.array([[z], [0.0]])
+                        v_known = True
                 else:
-                    n11, n12, n22 = repair_pd_2x2(ekf.P[0, 0], ekf.P[0, 1], ekf.P[1, 1], 1e-14, 1e-14)
-                ekf.P = np.array([[n11, n12], [n12, min(n22, 1e6)]])
-            if dt > 0.0 and T == T:
-                last_torque = T
-            out_m[i] = mass
+                    gamma = 1.0 + ref.m_rot / mass
+                    P_old = ekf.P.copy()
+                    F[0, 1] = -dt * g / gamma
+                    fv = ekf.x[0, 0] + dt * (last_torque / (ref.r * mass * gamma) - ref.mu * g / gamma
+                                             - g * ekf.x[1, 0] / gamma)
+                    fth = ekf.x[1, 0]
+                    ekf.F = F
+                    ekf.x_pred = np.array([[fv + q_v], [fth + q_th]])
+                    ekf.predict()
+                    if z == z:
+                        d = (1.0 - ref.b) / (1.0 - bk1)
+                        bk1 *= ref.b
+                        innov = z - ekf.x[0, 0]
+                        eps = innov - r_mean
+                        r_new = (1.0 - d) * R + d * (eps * eps - ekf.P[0, 0])
+                        if not (r_new > 0.0):
+                            r_new = (1.0 - d) * R + d * eps * eps
+                        R = max(r_new, 1e-12)
+                        ekf.update(np.array([[z]]), lambda x: hj, lambda x: np.array([[x[0, 0] + r_mean]]), R=R)
+                        r_mean = (1.0 - d) * r_mean + d * innov
+                        n11, n12, n22 = repair_pd_2x2(ekf.P[0, 0], ekf.P[0, 1], ekf.P[1, 1], 1e-14, 1e-14)
+                        fp = F @ P_old @ F.T
+                        k1, k2 = ekf.K[0, 0], ekf.K[1, 0]
+                        e2 = eps * eps
+                        q11, q12, q22 = repair_pd_2x2(
+                            (1.0 - d) * ekf.Q[0, 0] + d * (k1 * k1 * e2 + n11 - fp[0, 0]),
+                            (1.0 - d) * ekf.Q[0, 1] + d * (k1 * k2 * e2 + n12 - fp[0, 1]),
+                            (1.0 - d) * ekf.Q[1, 1] + d * (k2 * k2 * e2 + n22 - P_old[1, 1]), 1e-14, 1e-14, 1.0, 1.0)
+                        ekf.Q = np.array([[q11, q12], [q12, q22]])
+                        q_v = (1.0 - d) * q_v + d * (ekf.x[0, 0] - fv)
+                        q_th = (1.0 - d) * q_th + d * (ekf.x[1, 0] - fth)
+                    else:
+                        n11, n12, n22 = repair_pd_2x2(ekf.P[0, 0], ekf.P[0, 1], ekf.P[1, 1], 1e-14, 1e-14)
+                    ekf.P = np.array([[n11, n12], [n12, min(n22, 1e6)]])
+                if T == T:
+                    last_torque = T
+            out_m[i] = ref.mass_from_chi1(float(rls.x[0, 0]))
             out_s[i] = min(max(ekf.x[1, 0], -_SLOPE_OUT), _SLOPE_OUT)
         return out_m, out_s
 
@@ -241,8 +235,7 @@ def filterpy_paper_method(trace: Trace):
 def slope_ekf_plain(trace: Trace, mass_kg: float):
     torque = trace["torque_nm"].tolist()
     speed = trace["speed_mps"].tolist()
-    t = trace["t_s"]
-    dts = np.diff(t, prepend=t[0] - (t[1] - t[0])).tolist()
+    dts = first_step_dts(trace["t_s"]).tolist()
 
     def run() -> np.ndarray:
         f = SlopeEKF(DEFAULT_VEHICLE, gate_sigma=1e6)  # no gating, like the filterpy version

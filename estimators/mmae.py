@@ -107,17 +107,22 @@ class MMAEEstimator(Estimator):
         super().__init__(vehicle, **rest)
         veh = self.vehicle
         self.config = cfg
-        self.n_models = int(cfg.n_models)
-        self.payloads_kg = cfg.payloads_kg(veh)
+        grid = cfg.payloads_kg(veh)
+        both = bool(cfg.point_models) and cfg.rear_offset_m > 0.0
+        # with point models the bank is the payload grid twice: first the two-section train, then the point mass
+        self.payloads_kg = np.concatenate([grid, grid]) if both else grid
+        self.n_models = len(self.payloads_kg)
         self._mu = cfg.running_resistance_for(veh)
         # per-model mass terms, divided by the effective (translating + rotating) mass once here
         self._mass = veh.empty_mass_kg + self.payloads_kg
         self._m_rot = veh.rotating_mass_kg
         self._inv_meff = 1.0 / (self._mass + self._m_rot)
         self._radius = veh.drive_wheel_radius_m
-        m_front = float(cfg.front_mass_fraction) * veh.empty_mass_kg
+        m_front = np.full(self.n_models, float(cfg.front_mass_fraction) * veh.empty_mass_kg)
         if cfg.rear_offset_m == 0.0:  # point mass: every part on the accelerometer's slope
             m_front = self._mass.copy()
+        elif both:
+            m_front[len(grid):] = self._mass[len(grid):]
         m_rear = self._mass - m_front
         self._gf = G_MPS2 * m_front * self._inv_meff
         self._gf_mu = self._gf * self._mu

@@ -45,6 +45,10 @@ class MMAEConfig:
         Distance from the accelerometer back to the rear section and the payload's suspension (the project plant:
         IMU on the drive section, lifting beams 9 m behind). Without it a 30 m vertical curve biased the payload
         by 20-40 % (measured on the plant). 0 = a point mass (whole train on one slope).
+    point_models : bool, default False
+        Also run every payload hypothesis as a point mass (the whole train on the accelerometer's slope), so the
+        bank holds ``2 n_models`` filters and its probabilities weigh the two geometries as they weigh payloads
+        (spec §5.6's Bayesian update, applied to the unknown geometry). Ignored when ``rear_offset_m`` is 0.
     history_step_m : float, default 0.25
         Distance resolution of the remembered slope profile.
     slope_process_floor_radps : float, default 1e-4
@@ -78,6 +82,7 @@ class MMAEConfig:
     initial_curvature_std_rad_per_m: float = 1e-3
     front_mass_fraction: float = 0.55
     rear_offset_m: float = 9.0
+    point_models: bool = False
     history_step_m: float = 0.25
     slope_process_floor_radps: float = 1e-4
     initial_slope_std_rad: float = 0.15
@@ -109,6 +114,8 @@ class MMAEConfig:
         mu = self.running_resistance
         if mu is not None and (isinstance(mu, bool) or not isinstance(mu, (int, float)) or not (0.0 <= mu < 1.0)):
             raise MMAEConfigError(f"running_resistance must be in [0, 1), got {mu!r}")
+        if not isinstance(self.point_models, (bool, np.bool_)):
+            raise MMAEConfigError(f"point_models must be True or False, got {self.point_models!r}")
         if self.front_mass_fraction > 1.0:
             raise MMAEConfigError(f"front_mass_fraction must be in [0, 1], got {self.front_mass_fraction!r}")
 

@@ -58,7 +58,7 @@ class MMAEConfig:
     initial_speed_std_mps : float, default 0.5
         Prior standard deviation of the speed (prior mean: the first valid speed sample).
     prob_floor : float, default 1e-6
-        Lower bound of every model probability, in (0, 1/n_models).
+        Lower bound of every model probability, in (0, 1/number of filters) (``2 n_models`` with ``point_models``).
     min_traction_n : float, default 2000.0
         Model probabilities are only updated while the drive force ``T/r`` exceeds this.
     standstill_speed_mps : float, default 0.03
@@ -109,8 +109,9 @@ class MMAEConfig:
             raise MMAEConfigError(
                 f"payload_max_kg ({self.payload_max_kg!r}) must exceed payload_min_kg ({self.payload_min_kg!r})"
             )
-        if not (0.0 < self.prob_floor < 1.0 / n):
-            raise MMAEConfigError(f"prob_floor must be in (0, 1/n_models), got {self.prob_floor!r}")
+        filters = 2 * n if self.point_models is True and self.rear_offset_m > 0.0 else n
+        if not (0.0 < self.prob_floor < 1.0 / filters):
+            raise MMAEConfigError(f"prob_floor must be in (0, 1/{filters}) for {filters} filters, got {self.prob_floor!r}")
         mu = self.running_resistance
         if mu is not None and (isinstance(mu, bool) or not isinstance(mu, (int, float)) or not (0.0 <= mu < 1.0)):
             raise MMAEConfigError(f"running_resistance must be in [0, 1), got {mu!r}")

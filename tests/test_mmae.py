@@ -99,6 +99,7 @@ def test_registry_builds_mmae_with_default_bank() -> None:
         ({"speed_std_mps": 0.0}, "speed_std_mps"),
         ({"accel_std_mps2": math.nan}, "accel_std_mps2"),
         ({"point_models": "yes"}, "point_models"),
+        ({"point_models": True, "prob_floor": 0.02}, "prob_floor"),
     ],
 )
 def test_bad_options_are_named(options: dict, word: str) -> None:

@@ -108,7 +108,7 @@ class MMAEEstimator(Estimator):
         veh = self.vehicle
         self.config = cfg
         grid = cfg.payloads_kg(veh)
-        both = bool(cfg.point_models) and cfg.rear_offset_m > 0.0
+        both = cfg.with_point_models
         # with point models the bank is the payload grid twice: first the two-section train, then the point mass
         self.payloads_kg = np.concatenate([grid, grid]) if both else grid
         self.n_models = len(self.payloads_kg)

@@ -109,16 +109,21 @@ class MMAEConfig:
             raise MMAEConfigError(
                 f"payload_max_kg ({self.payload_max_kg!r}) must exceed payload_min_kg ({self.payload_min_kg!r})"
             )
-        filters = 2 * n if self.point_models is True and self.rear_offset_m > 0.0 else n
+        if not isinstance(self.point_models, (bool, np.bool_)):
+            raise MMAEConfigError(f"point_models must be True or False, got {self.point_models!r}")
+        filters = 2 * n if self.with_point_models else n
         if not (0.0 < self.prob_floor < 1.0 / filters):
             raise MMAEConfigError(f"prob_floor must be in (0, 1/{filters}) for {filters} filters, got {self.prob_floor!r}")
         mu = self.running_resistance
         if mu is not None and (isinstance(mu, bool) or not isinstance(mu, (int, float)) or not (0.0 <= mu < 1.0)):
             raise MMAEConfigError(f"running_resistance must be in [0, 1), got {mu!r}")
-        if not isinstance(self.point_models, (bool, np.bool_)):
-            raise MMAEConfigError(f"point_models must be True or False, got {self.point_models!r}")
         if self.front_mass_fraction > 1.0:
             raise MMAEConfigError(f"front_mass_fraction must be in [0, 1], got {self.front_mass_fraction!r}")
+
+    @property
+    def with_point_models(self) -> bool:
+        """Whether the bank holds the point-mass twin of every payload (``point_models`` on a two-section train)."""
+        return bool(self.point_models) and self.rear_offset_m > 0.0
 
     def payloads_kg(self, vehicle: VehicleParams) -> np.ndarray:
         """The hypothesised payloads, evenly spread; the upper end defaults to the vehicle's rated load."""

@@ -113,7 +113,9 @@ class MMAEConfig:
             raise MMAEConfigError(f"point_models must be True or False, got {self.point_models!r}")
         filters = 2 * n if self.with_point_models else n
         if not (0.0 < self.prob_floor < 1.0 / filters):
-            raise MMAEConfigError(f"prob_floor must be in (0, 1/{filters}) for {filters} filters, got {self.prob_floor!r}")
+            raise MMAEConfigError(
+                f"prob_floor must be in (0, 1/{filters}) for {filters} filters, got {self.prob_floor!r}"
+            )
         mu = self.running_resistance
         if mu is not None and (isinstance(mu, bool) or not isinstance(mu, (int, float)) or not (0.0 <= mu < 1.0)):
             raise MMAEConfigError(f"running_resistance must be in [0, 1), got {mu!r}")

@@ -68,7 +68,12 @@ from .mmae_config import MMAEConfig, MMAEConfigError
 
 _REPAIR_EVERY = 50
 _RELOCK_AFTER = 40  # consecutive outliers of one measurement after which it is believed again (a real step)
-_SLOPE_TAU_S = 1.0  # low-pass of the model-free slope that feeds the rear-section slope history
+_SLOPE_TAU_S = 1.0
+# the resistance offset learns only while the train clearly moves: near standstill the plant's friction is static
+# (not mu times the sign of the speed), and a holding torque read through the moving model passed for a smaller mu
+# (measured on pm-stop-and-go: mu 0.02 -> 0.005)
+_MU_MIN_SPEED_MPS = 0.1
+  # low-pass of the model-free slope that feeds the rear-section slope history
 
 
 class MMAEEstimator(Estimator):
@@ -90,9 +95,12 @@ class MMAEEstimator(Estimator):
         The validated tuning.
     payloads_kg : ndarray, shape (n_models,)
         The hypothesised payloads.
-    x : ndarray, shape (n_models, 3)
-        Per-model state ``[v_mps, slope_rad, curvature_rad_per_m]``.
-    P : ndarray, shape (n_models, 3, 3)
+    dim_x : int
+        3, or 4 when the running resistance is estimated (``resistance_std`` or ``resistance_walk_std`` above 0).
+    x : ndarray, shape (n_models, dim_x)
+        Per-model state ``[v_mps, slope_rad, curvature_rad_per_m]``, plus ``resistance_offset`` (the running
+        resistance coefficient minus the model's ``running_resistance``) when it is estimated.
+    P : ndarray, shape (n_models, dim_x, dim_x)
         Per-model state covariance.
     probabilities : ndarray, shape (n_models,)
         Current model probabilities (sum to 1).
@@ -137,6 +145,10 @@ class MMAEEstimator(Estimator):
         self._p0_kappa = float(cfg.initial_curvature_std_rad_per_m) ** 2
         self._p0_th = float(cfg.initial_slope_std_rad) ** 2
         self._p0_v = float(cfg.initial_speed_std_mps) ** 2
+        self._p0_mu = float(cfg.resistance_std) ** 2
+        self._q_mu = float(cfg.resistance_walk_std) ** 2
+        self._estimates_mu = self._p0_mu > 0.0 or self._q_mu > 0.0
+        self.dim_x = 4 if self._estimates_mu else 3
         # rear-slope history along the distance travelled
         self._rear_offset = float(cfg.rear_offset_m)
         self._hist_step = float(cfg.history_step_m)
@@ -145,12 +157,13 @@ class MMAEEstimator(Estimator):
         self._floor = float(cfg.prob_floor)
         self._min_traction_n = float(cfg.min_traction_n)
         self._standstill = float(cfg.standstill_speed_mps)
+        self._learn_min_speed = float(cfg.learn_min_speed_mps)
         self._v_s = float(cfg.smooth_speed_mps)
         self._gate_nis = float(cfg.gate_nis)
         self._limits = InputLimits.for_vehicle(veh)
         self._consts = _kernel.pack_constants(self._inv_meff, self._gf, self._gf_mu, self._gr, self._gr_mu,
                                               self.payloads_kg)
-        self._moments = np.empty(6)
+        self._moments = np.empty(7)
         # half-spacing quantisation of the payload grid: the mixture cannot resolve finer than this
         spacing = self.payloads_kg[1] - self.payloads_kg[0]
         self._grid_var = spacing**2 / 12.0
@@ -159,11 +172,9 @@ class MMAEEstimator(Estimator):
     # ------------------------------------------------------------------------------------------------------
     def reset(self) -> None:
         n = self.n_models
-        self._x = np.zeros((n, 3))
-        self._P = np.zeros((n, 3, 3))
-        self._P[:, 0, 0] = self._p0_v
-        self._P[:, 1, 1] = self._p0_th
-        self._P[:, 2, 2] = self._p0_kappa
+        self._x = np.zeros((n, _kernel.N_STATES))
+        self._P = np.zeros((n, _kernel.N_STATES, _kernel.N_STATES))
+        self._P[:] = self._prior_covariance()
         self._log_prob = np.full(n, -math.log(n))
         self._n_since_repair = 0
         self._s_m = 0.0
@@ -180,13 +191,16 @@ class MMAEEstimator(Estimator):
         self.n_outliers = 0
         self._estimate = self._mixture()
 
+    def _prior_covariance(self) -> np.ndarray:
+        return np.diag([self._p0_v, self._p0_th, self._p0_kappa, self._p0_mu])
+
     @property
     def x(self) -> np.ndarray:
-        return self._x.copy()
+        return self._x[:, : self.dim_x].copy()
 
     @property
     def P(self) -> np.ndarray:
-        return self._P.copy()
+        return self._P[:, : self.dim_x, : self.dim_x].copy()
 
     @property
     def probabilities(self) -> np.ndarray:
@@ -240,7 +254,7 @@ class MMAEEstimator(Estimator):
         # brake / static friction): no motion, only the process noise.
         th_rear = math.nan if held else self._rear_slope()
         _kernel.predict(self._x, self._P, self._consts, torque_nm, dt, held, speed_abs, th_rear, self._radius,
-                        1.0 / self._v_s, self._q_v, self._q_th_floor, self._q_kappa_per_m)
+                        1.0 / self._v_s, self._q_v, self._q_th_floor, self._q_kappa_per_m, self._q_mu)
 
     def _condition(self) -> None:
         # Both the prediction (Phi P Phi^T + Q) and the update (P - g g^T / s) are symmetric by construction;
@@ -253,8 +267,10 @@ class MMAEEstimator(Estimator):
         self._heal()
         P = 0.5 * (self._P + np.swapaxes(self._P, 1, 2))
         d = np.einsum("nii->ni", P)
-        np.maximum(d, 1e-14, out=d)
-        for a, b in ((0, 1), (0, 2), (1, 2)):
+        # the resistance offset's variance stays exactly 0 when it is not estimated (its correlations too)
+        floored = d if self._estimates_mu else d[:, :3]
+        np.maximum(floored, 1e-14, out=floored)
+        for a, b in ((0, 1), (0, 2), (1, 2), (0, 3), (1, 3), (2, 3)):
             lim = 0.999 * np.sqrt(P[:, a, a] * P[:, b, b])
             c = np.clip(P[:, a, b], -lim, lim)
             P[:, a, b] = c
@@ -275,7 +291,7 @@ class MMAEEstimator(Estimator):
         good_v = self._x[~bad, 0]
         self._x[bad] = 0.0
         self._x[bad, 0] = float(good_v.mean()) if good_v.size else 0.0
-        self._P[bad] = np.diag([self._p0_v, self._p0_th, self._p0_kappa])
+        self._P[bad] = self._prior_covariance()
         if lp_bad:
             self._log_prob = np.full(self.n_models, -math.log(self.n_models))
         return True
@@ -335,11 +351,13 @@ class MMAEEstimator(Estimator):
         th_rear = self._rear_slope()
         informative = (
             have_v and have_f and not held and abs(torque_nm) / self._radius >= self._min_traction_n
+            and abs(speed_mps) >= self._learn_min_speed
         )
         rejected = _kernel.correct(
             self._x, self._P, self._log_prob, self._consts, torque_nm, speed_mps, accel_mps2, have_v, have_f,
             th_rear, self._radius, self._v_s, self._r_v, self._r_f, informative, self._gate_nis, self._floor,
             self._n_rejected_v >= _RELOCK_AFTER, self._n_rejected_f >= _RELOCK_AFTER,
+            informative and abs(speed_mps) >= _MU_MIN_SPEED_MPS,
         )
         self._n_rejected_v = self._n_rejected_v + 1 if rejected & 1 else 0
         self._n_rejected_f = self._n_rejected_f + 1 if rejected & 2 else 0
@@ -357,14 +375,17 @@ class MMAEEstimator(Estimator):
     def _mixture(self) -> Estimate:
         out = self._moments
         _kernel.mixture(self._x, self._P, self._log_prob, self._consts, out)
-        payload, payload_var, slope, slope_var, speed, p_max = out.tolist()
+        payload, payload_var, slope, slope_var, speed, p_max, dmu = out.tolist()
         # the slope at the accelerometer = the train's reference point (the plant's truth convention)
+        extras = {"speed_mps": speed, "model_prob_max": p_max}
+        if self._estimates_mu:
+            extras["running_resistance"] = self._mu + dmu
         return Estimate(
             mass_kg=self.vehicle.empty_mass_kg + payload,
             slope_rad=slope,
             mass_std_kg=math.sqrt(payload_var + self._grid_var),
             slope_std_rad=math.sqrt(max(slope_var, 0.0)),
-            extras={"speed_mps": speed, "model_prob_max": p_max},
+            extras=extras,
         )
 
     def mixture_covariance(self) -> np.ndarray:

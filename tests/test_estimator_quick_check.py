@@ -36,3 +36,18 @@ def test_decimate_below_one_is_refused_before_any_run(capsys):
     with pytest.raises(SystemExit) as exc:
         qc.main(["--decimate", "0", "--runs", "0", "--tuning", "0"])
     assert exc.value.code == 2 and "--decimate must be >= 1" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("settle", ["-1", "60"])
+def test_settle_outside_the_runs_is_refused_before_any_run(capsys, settle):
+    with pytest.raises(SystemExit) as exc:
+        qc.main(["--settle", settle, "--runs", "0", "--tuning", "0"])
+    assert exc.value.code == 2 and "--settle must be in [0, 55)" in capsys.readouterr().err
+
+
+def test_settle_moves_the_scoring_window():
+    """The same run scored after 10 s and after 30 s: the later window cannot hold a larger maximum."""
+    job = ("point", qc.RunSpec("point", "point-000", 0, 0, "point"), [["mmae", "mmae", {"n_models": 6}]], 4)
+    (_, _, early, _), = qc._score((*job, 10.0))
+    (_, _, late, _), = qc._score((*job, 30.0))
+    assert np.isfinite(early) and 0.0 <= late <= early

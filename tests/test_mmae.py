@@ -100,6 +100,9 @@ def test_registry_builds_mmae_with_default_bank() -> None:
         ({"accel_std_mps2": math.nan}, "accel_std_mps2"),
         ({"point_models": "yes"}, "point_models"),
         ({"point_models": True, "prob_floor": 0.02}, "prob_floor"),
+        ({"resistance_std": -0.01}, "resistance_std"),
+        ({"resistance_walk_std": math.inf}, "resistance_walk_std"),
+        ({"learn_min_speed_mps": math.nan}, "learn_min_speed_mps"),
     ],
 )
 def test_bad_options_are_named(options: dict, word: str) -> None:
@@ -255,3 +258,25 @@ def test_point_models_let_the_bank_choose_the_geometry() -> None:
     series = MMAEEstimator(point_models=True).run(plant)
     last = slice(int(0.8 * len(plant)), None)
     assert abs(np.mean(series.mass_kg[last]) - plant["mass_kg"][-1]) < 0.08 * plant["mass_kg"][-1]
+
+
+def test_resistance_offset_state_learns_the_running_resistance() -> None:
+    """``resistance_std``: every filter also estimates the running resistance's offset from the vehicle file. On
+    pm-resistance-mismatch (true mu 30 % above the file's 0.02) it ends at the true 0.026 and the payload within
+    3 %; the state is reported (``x``, ``P`` 4 x 4 and SPD, the ``running_resistance`` extra). Off by default: three
+    states and no extra (the pinned outputs of tests/test_estimators_pinned.py hold the default unchanged)."""
+    from uuom_gym.sim.point_mass import simulate_point_mass
+
+    tr = simulate_point_mass("pm-resistance-mismatch", seed=1)
+    true_mu = 1.3 * DEFAULT_VEHICLE.running_resistance
+    est = MMAEEstimator(n_models=20, rear_offset_m=0.0, resistance_std=0.005, learn_min_speed_mps=0.1)
+    series = est.run(tr)
+    assert est.dim_x == 4 and est.x.shape == (20, 4) and est.P.shape == (20, 4, 4)
+    P = est.P
+    assert np.allclose(P, np.swapaxes(P, 1, 2)) and np.all(np.linalg.eigvalsh(P) > 0.0)
+    mu = series.extras["running_resistance"]
+    assert np.all(np.isfinite(mu)) and abs(mu[-1] - true_mu) < 0.1 * true_mu
+    assert abs(series.mass_kg[-1] - tr["mass_kg"][-1]) < 0.03 * tr["mass_kg"][-1]
+    # the file's mu believed: the offset cannot move and the payload takes up the missing resistance
+    fixed = MMAEEstimator(n_models=20, rear_offset_m=0.0)
+    assert fixed.dim_x == 3 and "running_resistance" not in fixed.run(tr).extras

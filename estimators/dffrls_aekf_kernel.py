@@ -38,6 +38,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
+    EST_SCORE,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
@@ -444,7 +445,7 @@ def estimate(S, C, out):
     out[5] = math.sqrt(max(var_mu * infl, 0.0))
     out[6] = min(max(S[MB] / c, 0.0), 1.0) if C[FUSED] != 0.0 else 0.0
     out[7] = S[NIS]
-    out[8] = S[SCORE]
+    out[EST_SCORE] = S[SCORE]
 
 
 @njit(cache=True)

@@ -148,3 +148,4 @@ N_S = 73
 N_HIST_MAX = 512
 # --- estimate row: what estimate() writes (mass, slope, their stds, mu, mu_std, alpha, nis, score) -------------
 N_EST = 9
+EST_SCORE = 8  # the estimate row's column of the force-balance score (the geometry bank weighs its members by it)

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from .dffrls_aekf_kernel import AMBIG, EARLY_CAP, N_EST, SCORE, SCORE_EARLY, TH_TRAIN, estimate, step
+from .dffrls_aekf_kernel import AMBIG, EARLY_CAP, EST_SCORE, N_EST, SCORE, SCORE_EARLY, TH_TRAIN, estimate, step
 from .numba_shim import njit
 
 __all__ = ["ambiguity", "bank_estimate", "bank_run", "bank_step", "bank_steps", "member_score", "mix",
@@ -24,7 +24,7 @@ def bank_estimate(SS, CC, rows, out):
     """Members' estimates into ``rows`` (k x N_EST), their mixture into ``out`` (:func:`mix`)."""
     for i in range(SS.shape[0]):
         estimate(SS[i], CC[i], rows[i])
-        rows[i, 8] = member_score(SS, CC, i)
+        rows[i, EST_SCORE] = member_score(SS, CC, i)
     mix(rows, out)
 
 
@@ -56,11 +56,12 @@ def normalise_evidence(w, w0, k):
 
 @njit(cache=True)
 def mix(rows, out):
-    """The mixture of the members' output rows (k x N_EST, score in column 8) into ``out``: the fixed entries, then the
-    k weights ``∝ exp(−score)``; each mean is weighted, each standard deviation includes the members' spread."""
+    """The mixture of the members' output rows (k x N_EST, score in column EST_SCORE) into ``out``: the fixed entries,
+    then the k weights ``∝ exp(−score)``; each mean is weighted, each standard deviation includes the members'
+    spread."""
     k = rows.shape[0]
     for i in range(k):
-        out[N_OUT_FIXED + i] = rows[i, 8]
+        out[N_OUT_FIXED + i] = rows[i, EST_SCORE]
     normalise_evidence(out, N_OUT_FIXED, k)
     # mean and std (with the spread between members) of (mass, slope, mu); the NIS as a weighted mean
     for mean_j, std_j, o_mean, o_std in ((0, 2, 0, 2), (1, 3, 1, 3), (4, 5, 4, 5)):

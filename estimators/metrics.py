@@ -41,6 +41,7 @@ __all__ = [
     "nis_consistency",
     "settled_mask",
     "settling_time_s",
+    "train_slope_deg",
 ]
 
 
@@ -63,6 +64,13 @@ class ErrorStats:
 
     def as_dict(self) -> dict[str, float | int]:
         return asdict(self)
+
+
+def train_slope_deg(trace) -> np.ndarray | None:
+    """The slope an estimate is scored against: the train-averaged slope (``effective_slope_deg``) where the trace
+    has it, else ``slope_deg`` (a point mass, or a recorded trace: the same slope); None if it has neither."""
+    train = trace.get("effective_slope_deg")
+    return trace.get("slope_deg") if train is None else train
 
 
 def settled_mask(t_s: np.ndarray, settle_s: float, truth: np.ndarray | None = None) -> np.ndarray:

@@ -39,7 +39,7 @@ import numpy as np
 
 from uuom_core.trace import Trace
 
-from .metrics import consistency, error_after_settling, nis_consistency, settling_time_s
+from .metrics import consistency, error_after_settling, nis_consistency, settling_time_s, train_slope_deg
 from .registry import available, get_class, make
 
 __all__ = ["MASS_SETTLE_TOL_PCT", "cached_rows", "fingerprint", "run_protocol", "score_trace", "usable_estimators"]
@@ -144,8 +144,7 @@ def score_trace(trace: Trace, name: str, settle_s: float = 10.0) -> dict[str, An
     t = trace["t_s"]
     mass_true = trace.get("mass_kg")
     slope_true = trace.get("slope_deg")
-    train = trace.get("effective_slope_deg")
-    train = slope_true if train is None else train
+    train = train_slope_deg(trace)
     has_mass, has_slope = "mass" in est.provides, "slope" in est.provides
     slope_deg, slope_std_deg = s.slope_deg, s.slope_std_deg
     row: dict[str, Any] = {

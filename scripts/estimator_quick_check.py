@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from estimators.metrics import error_after_settling
+from estimators.metrics import error_after_settling, train_slope_deg
 from estimators.registry import get_class
 from uuom_core.trace import Trace
 from uuom_gym.sim.protocol_runs import RunSpec, make_run, protocol_runs
@@ -61,8 +61,7 @@ def _score(job: tuple[str, RunSpec, list[list[Any]], int, float]) -> list[tuple[
     group, spec, configs, k, settle_s = job
     tr = decimate(make_run(spec), k)
     t = tr["t_s"]
-    slope = tr.get("effective_slope_deg")
-    slope = tr["slope_deg"] if slope is None else slope
+    slope = train_slope_deg(tr)
     rows = []
     for label, name, options in configs:
         s = get_class(name)(**options).run(tr)

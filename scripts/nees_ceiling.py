@@ -33,14 +33,13 @@ import numpy as np
 
 import estimators
 from estimators.metrics import (chi2_band, consistent_in_band_share, effective_samples, normalised_error_samples,
-                                pooled_autocorrelation)
+                                pooled_autocorrelation, train_slope_deg)
 from uuom_gym.sim.protocol_runs import make_run, protocol_runs
 
 
 def _run_errors(trace, name: str) -> dict[str, np.ndarray]:
     s = estimators.make(name).run(trace)
-    slope_ref = trace.get("effective_slope_deg")
-    slope_ref = trace["slope_deg"] if slope_ref is None else slope_ref
+    slope_ref = train_slope_deg(trace)
     return {"mass": normalised_error_samples(trace["t_s"], s.mass_kg, s.mass_std_kg, trace["mass_kg"]),
             "slope": normalised_error_samples(trace["t_s"], s.slope_deg, s.slope_std_deg, slope_ref)}
 

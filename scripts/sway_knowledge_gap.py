@@ -22,7 +22,7 @@ import sys
 
 import numpy as np
 
-from estimators.metrics import error_after_settling
+from estimators.metrics import error_after_settling, train_slope_deg
 from estimators.registry import get_class
 from uuom_gym.sim.protocol_runs import RunSpec, make_run
 
@@ -33,8 +33,7 @@ def _errors(name: str, trace, true_swing: bool) -> tuple[float, float]:
         opts = {"chain_length_m": float(trace.meta["chain_m"]), "sway_damping_ratio": float(trace.meta["sway_damping"])}
     s = get_class(name)(**opts).run(trace)
     t = trace["t_s"]
-    slope = trace.get("effective_slope_deg")
-    slope = trace["slope_deg"] if slope is None else slope
+    slope = train_slope_deg(trace)
     mass = error_after_settling(t, s.mass_kg, trace["mass_kg"], 10.0, relative=True)
     return mass.max_abs, error_after_settling(t, s.slope_deg, slope, 10.0).rmse
 

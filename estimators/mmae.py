@@ -9,7 +9,11 @@ spec §2::
     d theta / dt        = kappa v                   (+ a small random walk)
     d kappa / ds        = w_kappa                   (random walk in distance: vertical curves start and end)
 
-with ``s(v) = tanh(v / v_s)``. The train is 18 m long: its front part ``m_f`` (the drive section carrying the
+with ``s(v) = tanh(v / v_s)``. With ``resistance_std > 0`` every filter also estimates ``dmu``, the offset of ``mu``
+from the vehicle file's (a fourth state, a random walk of intensity ``resistance_walk_std``; learnt only while the
+train moves faster than 0.1 m/s and the probabilities learn, else held as a Schmidt consider parameter). On level
+track at constant speed ``T/r = M g mu`` ties ``dmu`` and the payload one to one; grade changes and accelerations
+separate them (docs/estimation.md, session 16). The train is 18 m long: its front part ``m_f`` (the drive section carrying the
 accelerometer, ``front_mass_fraction`` of the empty mass) is on the slope ``theta`` at the accelerometer, its rear
 part ``m_rj`` (the rest of the empty mass plus the payload ``p_j`` hanging from the lifting beams) on the slope
 ``theta_r`` ``rear_offset_m`` metres behind. ``theta_r`` is not a state: the bank remembers a model-free slope

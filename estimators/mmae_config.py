@@ -45,10 +45,12 @@ class MMAEConfig:
         Distance from the accelerometer back to the rear section and the payload's suspension (the project plant:
         IMU on the drive section, lifting beams 9 m behind). Without it a 30 m vertical curve biased the payload
         by 20-40 % (measured on the plant). 0 = a point mass (whole train on one slope).
-    point_models : bool, default False
+    point_models : bool, default True
         Also run every payload hypothesis as a point mass (the whole train on the accelerometer's slope), so the
         bank holds ``2 n_models`` filters and its probabilities weigh the two geometries as they weigh payloads
-        (spec §5.6's Bayesian update, applied to the unknown geometry). Ignored when ``rear_offset_m`` is 0.
+        (spec §5.6's Bayesian update, applied to the unknown geometry). Ignored when ``rear_offset_m`` is 0. The
+        default since round 2, session 16 (a trace does not say where gravity acts); the environment, whose plant
+        is the two-section train, sets it False (``uuom_gym.envs.observers.PLANT_GEOMETRY_OPTIONS``).
     resistance_std : float, default 0.0
         Prior standard deviation of the running-resistance coefficient's offset from ``running_resistance``. Above 0
         every filter estimates that offset as a fourth state (a wet rail, a worn wheel, a vehicle file that is off);
@@ -93,7 +95,7 @@ class MMAEConfig:
     initial_curvature_std_rad_per_m: float = 1e-3
     front_mass_fraction: float = 0.55
     rear_offset_m: float = 9.0
-    point_models: bool = False
+    point_models: bool = True
     resistance_std: float = 0.0
     resistance_walk_std: float = 0.0
     history_step_m: float = 0.25

@@ -20,11 +20,22 @@ SENSOR_KEYS: tuple[str, ...] = SENSOR_COLUMNS
 """The sensor channels of a policy step, in the order of ``Estimator.update``'s arguments."""
 
 
-PLANT_GEOMETRY_OPTIONS: dict[str, dict[str, Any]] = {"dffrls-aekf": {"train_length_m": 12.0}}
+PLANT_GEOMETRY_OPTIONS: dict[str, dict[str, Any]] = {
+    "dffrls-aekf": {"train_length_m": 12.0},
+    "mmae": {"point_models": False},
+}
 """What the env's plant tells an observer about itself unless the observer options say otherwise: where along the
-train gravity acts relative to the sensors (the slope averaged over 12 m behind them, the window chosen on plant
-runs). Offline, where a vehicle file does not say it, ``dffrls-aekf`` learns the geometry (a bank over a point mass
-and this window, :mod:`estimators.geometry_bank`); in the env it is known, as it is to whoever mounts the sensors."""
+train gravity acts relative to the sensors (for ``dffrls-aekf`` the slope averaged over 12 m behind them, the window
+chosen on plant runs; for ``mmae`` the two-section train, no point-mass twins). Offline, where a vehicle file does not
+say it, both learn the geometry (``dffrls-aekf`` a bank over a point mass and this window,
+:mod:`estimators.geometry_bank`; ``mmae`` its payload bank twice, ``point_models``); in the env it is known, as it is
+to whoever mounts the sensors."""
+
+_GEOMETRY_OPTION_NAMES: dict[str, frozenset[str]] = {
+    "dffrls-aekf": frozenset({"train_length_m", "windows_m"}),
+    "mmae": frozenset({"point_models", "rear_offset_m"}),
+}
+"""Options that state the geometry themselves: given any of them, the plant's entry above is not added."""
 
 
 class UnknownObserverError(ValueError):
@@ -163,7 +174,7 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
             f"unknown observer {name!r}; choose 'oracle', 'none' or an estimator: {', '.join(estimators.available())}"
         )
     options = dict(options or {})
-    if not {"train_length_m", "windows_m"} & set(options):
+    if not _GEOMETRY_OPTION_NAMES.get(name, frozenset()) & set(options):
         options = {**PLANT_GEOMETRY_OPTIONS.get(name, {}), **options}
     return EstimatorObserver(vehicle, name, options)
 

@@ -179,6 +179,9 @@ class UUOMTrackEnv(gym.Env):
     * v0 (rev. 6, no id change, behaviour unchanged): the registered ``dffrls-aekf`` became a geometry bank that
       learns where gravity acts (``estimators.geometry_bank``); the env keeps the plant's known 12 m window
       (``train_length_m=12`` unless ``observer_options`` say otherwise), so episodes are identical.
+    * v0 (rev. 7, no id change, behaviour unchanged): the registered ``mmae`` runs every payload also as a point
+      mass by default (``point_models``); the env keeps the plant's two-section model (``point_models=False``
+      unless ``observer_options`` say otherwise), so episodes are identical.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -13,16 +13,21 @@ with ``s(v) = tanh(v / v_s)``. With ``resistance_std > 0`` every filter also est
 from the vehicle file's (a fourth state, a random walk of intensity ``resistance_walk_std``; learnt only while the
 train moves faster than 0.1 m/s and the probabilities learn, else held as a Schmidt consider parameter). On level
 track at constant speed ``T/r = M g mu`` ties ``dmu`` and the payload one to one; grade changes and accelerations
-separate them (docs/estimation.md, session 16). The train is 18 m long: its front part ``m_f`` (the drive section carrying the
-accelerometer, ``front_mass_fraction`` of the empty mass) is on the slope ``theta`` at the accelerometer, its rear
-part ``m_rj`` (the rest of the empty mass plus the payload ``p_j`` hanging from the lifting beams) on the slope
-``theta_r`` ``rear_offset_m`` metres behind. ``theta_r`` is not a state: the bank remembers a model-free slope
+separate them (docs/estimation.md, session 16).
+
+The train is 18 m long: its front part ``m_f`` (the drive section carrying the accelerometer,
+``front_mass_fraction`` of the empty mass) is on the slope ``theta`` at the accelerometer, its rear part ``m_rj``
+(the rest of the empty mass plus the payload ``p_j`` hanging from the lifting beams) on the slope ``theta_r``
+``rear_offset_m`` metres behind. ``theta_r`` is not a state: the bank remembers a model-free slope
 measurement ``asin((f - dv/dt) / g)`` (low-passed) along the distance travelled (odometry from the measured speed)
 and looks up where the rear is now. (Remembering the bank's own estimate instead fed its errors back: measured
 slope errors of 1.5 deg on level track.) On a short
 vertical curve (the road test: 0 to 11 deg in 8 m) a single-slope model put the whole mass on the accelerometer's
 slope and drove the payload to the edge of the bank (measured, docs/mmae_aupf.md). The slope reported is
-``theta``, at the train's reference point (``position_m`` of the plant).
+``theta``, at the train's reference point (``position_m`` of the plant). A trace does not say where gravity acts,
+so by default (``point_models``) the bank runs every payload twice, as this two-section train and as a point mass
+(the whole train on ``theta``), and the same Bayesian update weighs the geometries; the environment, whose plant
+is the two-section train, turns the twins off.
 
 The mean is propagated with a fixed-step fourth-order Runge-Kutta step of the speed equation (as the patent does;
 over one sample the slope is held and then advanced by ``kappa`` times the distance travelled), the covariance with
@@ -72,12 +77,11 @@ from .mmae_config import MMAEConfig, MMAEConfigError
 
 _REPAIR_EVERY = 50
 _RELOCK_AFTER = 40  # consecutive outliers of one measurement after which it is believed again (a real step)
-_SLOPE_TAU_S = 1.0
+_SLOPE_TAU_S = 1.0  # low-pass of the model-free slope that feeds the rear-section slope history
 # the resistance offset learns only while the train clearly moves: near standstill the plant's friction is static
 # (not mu times the sign of the speed), and a holding torque read through the moving model passed for a smaller mu
 # (measured on pm-stop-and-go: mu 0.02 -> 0.005)
 _MU_MIN_SPEED_MPS = 0.1
-  # low-pass of the model-free slope that feeds the rear-section slope history
 
 
 class MMAEEstimator(Estimator):

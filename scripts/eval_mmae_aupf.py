@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from estimators.aupf import AUPFEstimator
+from estimators.base import first_step_dts
 from estimators.mmae import MMAEEstimator
 from uuom_gym.sim.station import station_trace
 from uuom_gym.sim.plant import PlantConfig
@@ -122,7 +123,7 @@ def figures() -> None:
     probs = np.empty((n, grid))
     point_share = np.empty(n)
     nan = float("nan")
-    dts = np.diff(t, prepend=t[0] - 0.005)
+    dts = first_step_dts(t)  # as Estimator.run steps a trace
     for k in range(n):
         e = est.update(tr["torque_nm"][k], tr["speed_mps"][k], tr["accel_mps2"][k], dts[k], nan)
         mass[k], std[k] = e.mass_kg, e.mass_std_kg

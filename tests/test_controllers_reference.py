@@ -30,7 +30,6 @@ from uuom_core.vehicle import G_MPS2
 SHORT = {"track_length_m": (60.0, 120.0)}
 
 
-
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_profile_respects_the_limit_and_stops(seed):
     rng = np.random.default_rng(seed)

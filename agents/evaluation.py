@@ -196,6 +196,10 @@ def run_episode(task: Task) -> dict[str, Any]:
         wall_s=time.perf_counter() - t0,
         shield_interventions=int(info.get("shield_interventions", 0)),
     )
+    if isinstance(ctrl, ModelPolicy):  # where a trained policy's episode can be reproduced bit for bit
+        from agents.float_path import float_path_fingerprint
+
+        row["float_path"] = float_path_fingerprint()
     if task.record:
         row["trace"] = trace
     return row

@@ -7,6 +7,14 @@ Why: the tables are the project's RL evidence, and the estimators under them kee
 alters an observer's episodes leaves its row stale without any other test noticing (it happened: ``fused``'s blend
 gate in round 2, session 10, changed its rows until they were re-run). Each check is one full-length episode (about
 a second), so the suite keeps its budget; ``scripts/observer_study.sh`` re-runs a stale row.
+
+A trained policy's episode is reproducible bit for bit only on a CPU whose float32 arithmetic is the table's
+(:mod:`agents.float_path`): elsewhere the PPO rows are skipped, saying so, unless the committed row records this
+machine's fingerprint. What holds on every machine: the rule-based rows (no torch; they see every observer's
+estimator, so an estimator change that makes a row stale fails there), and each shipped policy's actions on
+observations of its first held-out episode (``tests/data/policy_actions_pinned.npz``, open loop, to 1e-5: a change
+of the policy files, their normalisation or the observation layout fails there). To rewrite that file after an
+intended change: ``UUOM_REWRITE_PINNED=1 python -m pytest tests/test_reproduce_tables.py`` and say why in the commit.
 """
 
 from __future__ import annotations
@@ -14,12 +22,16 @@ from __future__ import annotations
 import functools
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from agents.evaluation import Task, read_episodes, run_episode
+import numpy as np
+
+from agents.evaluation import ModelPolicy, Task, read_episodes, run_episode
+from agents.float_path import float_path_fingerprint
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "results" / "agents" / "observer_study_ppo"
@@ -57,8 +69,66 @@ def test_study_row_episode_is_reproduced_by_its_shipped_policy(observer, seed):
     cfg = json.loads((run / "config.json").read_text())
     assert cfg["observer"] == observer
     want = _committed(STUDY, observer=observer, training_run=training_run)
+    here = float_path_fingerprint()
+    if want.get("float_path") != here:
+        pytest.skip(f"the committed row was written with float32 path {want.get('float_path') or '(not recorded)'}, "
+                    f"this machine has {here}: a policy's episode is reproducible only on the same path")
     got = run_episode(Task(str(run), observer, SEED, json.dumps(cfg["env_kwargs"])))
     _same_episode(got, want, "stale row: re-run it (scripts/observer_study.sh) and re-merge the study")
+
+
+PINNED_ACTIONS = ROOT / "tests" / "data" / "policy_actions_pinned.npz"
+PINNED_EVERY, PINNED_STEPS = 20, 400
+"""Every 20th observation of the first 400 policy steps of each shipped policy's first held-out episode."""
+
+
+def _observations(run: Path, observer: str, env_kwargs: dict[str, Any]) -> np.ndarray:
+    """Raw observations of the policy's own episode on the first held-out track (this machine's closed loop)."""
+    import gymnasium as gym
+
+    from agents.evaluation import ENV_ID
+    from agents.training import wrap_env
+
+    policy = ModelPolicy(run)
+    env = wrap_env(gym.make(ENV_ID, observer=observer, **env_kwargs), policy.shield, policy.residual,
+                   policy.margin_schedule)
+    obs, info = env.reset(seed=SEED)
+    out = []
+    for step in range(PINNED_STEPS):
+        if step % PINNED_EVERY == 0:
+            out.append(np.array(obs, dtype=np.float32))
+        obs, _, term, trunc, info = env.step(policy.act(obs, info))
+        if term or trunc:
+            break
+    env.close()
+    return np.stack(out)
+
+
+def _rewrite_pinned_actions() -> None:
+    arrays = {}
+    for observer, seed in CASES:
+        run, _ = _policy(observer, seed)
+        env_kwargs = json.loads((run / "config.json").read_text())["env_kwargs"]
+        obs = _observations(run, observer, env_kwargs)
+        policy = ModelPolicy(run)
+        arrays[f"{observer}_s{seed}/obs"] = obs
+        arrays[f"{observer}_s{seed}/action"] = np.stack([policy.act(o, {}) for o in obs])
+    np.savez_compressed(PINNED_ACTIONS, **arrays)
+
+
+if os.environ.get("UUOM_REWRITE_PINNED") == "1":  # pragma: no cover - maintenance path
+    _rewrite_pinned_actions()
+
+
+@pytest.mark.parametrize("observer,seed", CASES, ids=[f"{o}_s{s}" for o, s in CASES])
+def test_shipped_policy_acts_as_pinned(observer, seed):
+    run, _ = _policy(observer, seed)
+    with np.load(PINNED_ACTIONS) as data:
+        obs, want = data[f"{observer}_s{seed}/obs"], data[f"{observer}_s{seed}/action"]
+    policy = ModelPolicy(run)
+    got = np.stack([policy.act(o, {}) for o in obs])
+    # float32 products of another CPU's code path differ in the last bits (~1e-7); a changed policy by far more
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-5, err_msg=f"{run.name}: the shipped policy acts differently")
 
 
 RB_STUDY = ROOT / "results" / "agents" / "observer_study_rule_based"

@@ -53,6 +53,12 @@ normalised innovation squared exceeds ``gate_nis`` (spikes, faults). A measureme
 every model is an outlier and updates no state either, unless it has done so for 40 samples in a row (then it is
 a real step and is followed); ``n_outliers`` counts them.
 
+Two sensor faults stay within the plausible range and reach every model's likelihood: a torque spike (the torque
+is the model's input, which no innovation gate sees) and a frozen accelerometer. A torque sample that jumps by more
+than ``torque_jump_fraction`` of the maximum traction torque is held back until the next one confirms it, and an
+accelerometer that repeats one value ``stuck_repeats`` times in a row is dropped while it does
+(:mod:`estimators.input_faults`).
+
 Bad input: NaN and physically impossible values (:class:`~estimators.input_limits.InputLimits`: ``inf``,
 ``1e300``) are missing samples; a ``dt`` above :data:`~estimators.filters.MAX_STEP_S` is a gap predicted over that
 long; a model whose state stops being finite is restarted. The tuning is :class:`~estimators.mmae_config.MMAEConfig`;
@@ -71,6 +77,7 @@ from uuom_core.vehicle import G_MPS2, VehicleParams
 from .base import Estimate, Estimator
 from .config import split_options
 from .filters import MAX_STEP_S, check_dt_non_negative
+from .input_faults import JumpGate, StuckDetector
 from .input_limits import InputLimits, plausible
 from . import mmae_kernel as _kernel
 from .mmae_config import MMAEConfig, MMAEConfigError
@@ -169,6 +176,8 @@ class MMAEEstimator(Estimator):
         self._v_s = float(cfg.smooth_speed_mps)
         self._gate_nis = float(cfg.gate_nis)
         self._limits = InputLimits.for_vehicle(veh)
+        self._torque_gate = JumpGate(float(cfg.torque_jump_fraction) * veh.max_traction_n * self._radius)
+        self._accel_stuck = StuckDetector(int(cfg.stuck_repeats))
         self._consts = _kernel.pack_constants(self._inv_meff, self._gf, self._gf_mu, self._gr, self._gr_mu,
                                               self.payloads_kg)
         self._moments = np.empty(7)
@@ -194,6 +203,8 @@ class MMAEEstimator(Estimator):
         self._slope_lp = 0.0
         self._initialised = False
         self._last_torque = 0.0
+        self._torque_gate.reset()
+        self._accel_stuck.reset()
         self._n_rejected_v = 0
         self._n_rejected_f = 0
         self.n_outliers = 0
@@ -327,6 +338,8 @@ class MMAEEstimator(Estimator):
         torque_nm = plausible(torque_nm, lim.torque_nm)
         speed_mps = plausible(speed_mps, lim.speed_mps)
         accel_mps2 = plausible(accel_mps2, lim.accel_mps2)
+        torque_nm = self._torque_gate(torque_nm)
+        accel_mps2 = self._accel_stuck(accel_mps2)
         have_v = math.isfinite(speed_mps)
         have_f = math.isfinite(accel_mps2)
         have_t = math.isfinite(torque_nm)

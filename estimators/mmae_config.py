@@ -82,6 +82,14 @@ class MMAEConfig:
         over-estimated the payload by up to 12 % (measured).
     gate_nis : float, default 36.0
         Freeze the probabilities on a sample whose best-model normalised innovation squared exceeds this.
+    torque_jump_fraction : float, default 0.15
+        A torque sample that differs from the last accepted one by more than this share of the maximum traction
+        torque is held back until the next sample confirms the new level (:class:`~estimators.input_faults.JumpGate`);
+        0 = off. The torque is the model's input, which no innovation gate sees: one spike favoured the heavy
+        payloads for seconds (docs/estimation.md, session 17). Clean runs change by at most 6 % per 5 ms sample.
+    stuck_repeats : int, default 20
+        The accelerometer is taken as stuck while it repeats one value this many samples in a row, once it has
+        shown its noise (:class:`~estimators.input_faults.StuckDetector`); 0 = off.
     """
 
     n_models: int = 30
@@ -108,16 +116,19 @@ class MMAEConfig:
     learn_min_speed_mps: float = 0.0
     smooth_speed_mps: float = 0.01
     gate_nis: float = 36.0
+    torque_jump_fraction: float = 0.15
+    stuck_repeats: int = 20
 
     def __post_init__(self) -> None:
         n = self.n_models
         check_int_option("n_models", n, MMAEConfigError, minimum=2)
+        check_int_option("stuck_repeats", self.stuck_repeats, MMAEConfigError, minimum=0)
         positive = ("speed_std_mps", "accel_std_mps2", "accel_process_std_mps2", "slope_process_floor_radps",
                     "initial_slope_std_rad", "initial_curvature_std_rad_per_m", "initial_speed_std_mps",
                     "smooth_speed_mps", "history_step_m", "gate_nis")
         non_negative = ("payload_min_kg", "curvature_change_std", "rear_offset_m", "front_mass_fraction",
                         "min_traction_n", "standstill_speed_mps", "learn_min_speed_mps", "resistance_std",
-                        "resistance_walk_std")
+                        "resistance_walk_std", "torque_jump_fraction")
         values = {k: getattr(self, k) for k in (*positive, *non_negative)}
         if self.payload_max_kg is not None:
             values["payload_max_kg"] = self.payload_max_kg

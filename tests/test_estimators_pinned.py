@@ -48,9 +48,10 @@ def pinned_trace() -> Trace:
     return Trace(cols, source="pinned")
 
 
-OPTIONS: dict[str, dict] = {"mmae": {"point_models": False}}
-"""Options the pinned values were written with: ``mmae``'s point-mass twins became its default after the pin
-(round 2, session 16); the pin guards the two-section bank (the environment's setting) bit for bit."""
+OPTIONS: dict[str, dict] = {"mmae": {"point_models": False, "torque_jump_fraction": 0.0, "stuck_repeats": 0}}
+"""Options the pinned values were written with: ``mmae``'s point-mass twins (round 2, session 16) and its sensor
+fault detectors (session 17) became its defaults after the pin; the pin guards the environment's setting (the
+two-section bank, fault-free sensors) bit for bit."""
 
 
 def outputs(name: str, trace: Trace) -> dict[str, np.ndarray]:

@@ -37,6 +37,14 @@ _GEOMETRY_OPTION_NAMES: dict[str, frozenset[str]] = {
 }
 """Options that state the geometry themselves: given any of them, the plant's entry above is not added."""
 
+FAULT_FREE_SENSOR_OPTIONS: dict[str, dict[str, Any]] = {
+    "mmae": {"torque_jump_fraction": 0.0, "stuck_repeats": 0},
+}
+"""What the env tells an observer when its sensors have no faults (``sensor_faults=None``, the default): no spike or
+frozen-channel detection (:mod:`estimators.input_faults`). On a fault-free channel a detector can only mistake data
+for a fault: the env's traction command steps the drive torque within one sample, which the jump gate holds back for
+that sample. With ``sensor_faults`` set, or any of these options given, the estimator's own defaults hold."""
+
 
 class UnknownObserverError(ValueError):
     """An observer name that is neither an estimator nor ``oracle`` / ``none``."""
@@ -149,8 +157,13 @@ def _finite_or(x: float, fallback: float) -> float:
     return float(x) if math.isfinite(x) else float(fallback)
 
 
-def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] | None = None) -> Observer:
+def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] | None = None,
+                  fault_free_sensors: bool = False) -> Observer:
     """The observer called ``name`` (``"oracle"``, ``"none"`` or a registered estimator).
+
+    The env's plant adds what it knows about itself to the estimator's options: its geometry
+    (:data:`PLANT_GEOMETRY_OPTIONS`) and, with ``fault_free_sensors``, that no sensor spikes or freezes
+    (:data:`FAULT_FREE_SENSOR_OPTIONS`); options given by name take precedence.
 
     Raises
     ------
@@ -176,6 +189,9 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
     options = dict(options or {})
     if not _GEOMETRY_OPTION_NAMES.get(name, frozenset()) & set(options):
         options = {**PLANT_GEOMETRY_OPTIONS.get(name, {}), **options}
+    fault_free = FAULT_FREE_SENSOR_OPTIONS.get(name, {}) if fault_free_sensors else {}
+    if not set(fault_free) & set(options):
+        options = {**fault_free, **options}
     return EstimatorObserver(vehicle, name, options)
 
 

@@ -182,6 +182,9 @@ class UUOMTrackEnv(gym.Env):
     * v0 (rev. 7, no id change, behaviour unchanged): the registered ``mmae`` runs every payload also as a point
       mass by default (``point_models``); the env keeps the plant's two-section model (``point_models=False``
       unless ``observer_options`` say otherwise), so episodes are identical.
+    * v0 (rev. 8, no id change, behaviour unchanged): the registered ``mmae`` detects torque spikes and a stuck
+      accelerometer by default (``estimators.input_faults``); with ``sensor_faults=None`` the env's sensors have
+      neither, and it turns the detectors off (``observers.FAULT_FREE_SENSOR_OPTIONS``), so episodes are identical.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
@@ -209,7 +212,8 @@ class UUOMTrackEnv(gym.Env):
         self._cautious_mps = 0.0
         self._target_mps: float | None = None
         self.observation_space = observation_space()
-        self.observer = make_observer(cfg["observer"], self.vehicle, cfg["observer_options"])
+        self.observer = make_observer(cfg["observer"], self.vehicle, cfg["observer_options"],
+                                      fault_free_sensors=cfg["sensor_faults"] is None)
         self.safety = SafetyMonitor(self.vehicle, SafetyParams.from_config(cfg))
         self._none_limit = worst_case_speed_limit_mps(self.vehicle)
         self._renderer = None

@@ -1,0 +1,116 @@
+"""Causal detectors of two sensor faults that plausibility limits cannot see: a one-sample spike on an input and a
+channel stuck at one value.
+
+Both faults stay within :class:`~estimators.input_limits.InputLimits`, so they reach a filter as data. Where a filter
+weighs models by every sample's likelihood (``mmae``), a single wrong torque sample or three seconds of a frozen
+accelerometer move the model probabilities by tens of per cent (measured on ``pm-sensor-faults``, docs/estimation.md
+"Sensor faults that reach the likelihood"). Each detector turns such samples into missing ones (``NaN``), which the
+filters already handle: predict without correcting.
+
+* :class:`JumpGate`: a sample that differs from the last accepted one by more than ``max_jump`` is held back; when
+  the next sample is near it (within ``max_jump``) the new level is real (a step of the drive command) and is
+  accepted; when the next sample is back near the old level, the held one was a spike. A real step thus costs one
+  sample; a one-sample spike is never used.
+* :class:`StuckDetector`: a channel whose noise makes consecutive samples differ (the accelerometer: noise,
+  vibration of the load, quantisation finer than the noise) and that repeats one value ``min_repeats`` times in a
+  row is frozen; its samples count as missing until the value changes. Only a channel that has shown its noise is
+  judged: white noise reverses the direction of the previous change on two samples of three, a smooth signal
+  (noise-free simulated data) almost never; while fewer than one in three of the recent samples did, a run of equal
+  values is data (a level stretch of a simulation, quantisation coarser than the noise).
+"""
+
+from __future__ import annotations
+
+import math
+
+_RATE_GAIN = 0.01  # memory of the noise rate: ~100 samples (0.5 s at 200 Hz)
+_NOISY = 1.0 / 3.0  # half of white noise's rate of direction reversals
+
+
+class JumpGate:
+    """Hold back a sample that jumps by more than ``max_jump`` from the last accepted one until the next confirms it.
+
+    Parameters
+    ----------
+    max_jump : float
+        Largest change between consecutive accepted samples that is taken at once (channel units); 0 = gate off.
+
+    Attributes
+    ----------
+    n_held : int
+        Samples held back (spikes, and the first sample of every real step).
+    """
+
+    def __init__(self, max_jump: float) -> None:
+        if not (max_jump >= 0.0 and math.isfinite(max_jump)):
+            raise ValueError(f"JumpGate: max_jump must be a finite number >= 0, got {max_jump!r}")
+        self.max_jump = float(max_jump)
+        self.reset()
+
+    def reset(self) -> None:
+        self._last = math.nan
+        self._pending = math.nan
+        self.n_held = 0
+
+    def __call__(self, value: float) -> float:
+        """``value`` if it is accepted, else ``NaN``; a ``NaN`` in gives ``NaN`` out and changes nothing."""
+        if not math.isfinite(value) or self.max_jump == 0.0:
+            return value
+        # a NaN last (nothing accepted yet) compares False, so the first finite sample is taken as it is
+        if not abs(value - self._last) > self.max_jump or abs(value - self._pending) <= self.max_jump:
+            self._last = value
+            self._pending = math.nan
+            return value
+        self._pending = value
+        self.n_held += 1
+        return math.nan
+
+
+class StuckDetector:
+    """Treat a channel as stuck while it repeats one value at least ``min_repeats`` times in a row.
+
+    Parameters
+    ----------
+    min_repeats : int
+        Consecutive identical samples (the first one counted) from which on the value is taken as frozen; 0 = off.
+        Missing samples in between neither count nor break the run.
+
+    Attributes
+    ----------
+    n_stuck : int
+        Samples dropped as stuck.
+    noise_rate : float
+        Recent share of samples whose change reversed the sign of the previous change (about the last 100 samples,
+        outside stuck runs); ~2/3 for white noise, 0 for a smooth signal; starts at 0 (no noise seen yet).
+    """
+
+    def __init__(self, min_repeats: int) -> None:
+        if isinstance(min_repeats, bool) or not isinstance(min_repeats, int) or min_repeats < 0:
+            raise ValueError(f"StuckDetector: min_repeats must be an integer >= 0, got {min_repeats!r}")
+        self.min_repeats = min_repeats
+        self.reset()
+
+    def reset(self) -> None:
+        self._value = math.nan
+        self._change = 0.0
+        self._run = 0
+        self.n_stuck = 0
+        self.noise_rate = 0.0
+
+    def __call__(self, value: float) -> float:
+        """``value``, or ``NaN`` while the channel is stuck; a ``NaN`` in gives ``NaN`` out."""
+        if not math.isfinite(value) or self.min_repeats == 0:
+            return value
+        change = value - self._value if math.isfinite(self._value) else 0.0
+        self._run = self._run + 1 if change == 0.0 else 1
+        self._value = value
+        if self._run < self.min_repeats:  # a stuck run must not teach the channel that it has no noise
+            self.noise_rate += _RATE_GAIN * (float(change * self._change < 0.0) - self.noise_rate)
+            self._change = change
+        elif self.noise_rate > _NOISY:
+            self.n_stuck += 1
+            return math.nan
+        return value
+
+
+__all__ = ["JumpGate", "StuckDetector"]

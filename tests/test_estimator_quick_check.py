@@ -1,4 +1,4 @@
-"""scripts/estimator_quick_check.py: ``--decimate K`` gives the estimators what a logger at 200/K Hz records."""
+"""scripts/estimator_quick_check.py: ``--decimate K`` (what a logger at 200/K Hz records), ``--settle``, ``--scenario-seeds``."""
 
 from __future__ import annotations
 
@@ -51,3 +51,17 @@ def test_settle_moves_the_scoring_window():
     (_, _, early, _), = qc._score((*job, 10.0))
     (_, _, late, _), = qc._score((*job, 30.0))
     assert np.isfinite(early) and 0.0 <= late <= early
+
+
+def test_scenario_seeds_run_every_scenario_with_each_sensor_seed():
+    specs = [s for g, s in qc._specs(0, 0, scenario_seeds=3) if g.startswith("pm-sc:")]
+    one = [s for g, s in qc._specs(0, 0) if g.startswith("pm-sc:")]
+    assert len(specs) == 3 * len(one) and specs[:len(one)] == one  # seed 0 is the protocol's run, unchanged
+    assert {s.seed for s in specs} == {0, 1, 2} and len({s.name for s in specs}) == len(specs)
+    assert {s.scenario for s in specs[len(one):]} == {s.scenario for s in one}
+
+
+def test_scenario_seeds_below_one_are_refused_before_any_run(capsys):
+    with pytest.raises(SystemExit) as exc:
+        qc.main(["--scenario-seeds", "0", "--runs", "0", "--tuning", "0"])
+    assert exc.value.code == 2 and "--scenario-seeds must be >= 1" in capsys.readouterr().err

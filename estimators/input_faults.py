@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import math
 
+from .filters import check_int_option, check_number_options
+
 _RATE_GAIN = 0.01  # memory of the noise rate: ~100 samples (0.5 s at 200 Hz)
 _NOISY = 1.0 / 3.0  # half of white noise's rate of direction reversals
 
@@ -42,8 +44,7 @@ class JumpGate:
     """
 
     def __init__(self, max_jump: float) -> None:
-        if not (max_jump >= 0.0 and math.isfinite(max_jump)):
-            raise ValueError(f"JumpGate: max_jump must be a finite number >= 0, got {max_jump!r}")
+        check_number_options({"max_jump": max_jump}, ValueError, non_negative=("max_jump",), reject_bool=True)
         self.max_jump = float(max_jump)
         self.reset()
 
@@ -85,9 +86,8 @@ class StuckDetector:
     """
 
     def __init__(self, min_repeats: int) -> None:
-        if isinstance(min_repeats, bool) or not isinstance(min_repeats, int) or min_repeats < 0:
-            raise ValueError(f"StuckDetector: min_repeats must be an integer >= 0, got {min_repeats!r}")
-        self.min_repeats = min_repeats
+        check_int_option("min_repeats", min_repeats, ValueError, minimum=0)
+        self.min_repeats = int(min_repeats)
         self.reset()
 
     def reset(self) -> None:

@@ -108,16 +108,15 @@ def main(argv: list[str] | None = None) -> int:
     jobs = [(g, s, configs, args.decimate, args.settle) for g, s in _specs(args.runs, args.tuning, args.scenario_seeds)]
     with multiprocessing.Pool(max(1, args.workers)) as pool:
         rows = [r for rs in pool.map(_score, jobs, chunksize=1) for r in rs]
-    names = [s.name for _, s, *_ in jobs for _ in configs]
-    seeds = [s.seed for _, s, *_ in jobs for _ in configs]
+    specs = [s for _, s, *_ in jobs for _ in configs]
     by_group: dict[tuple[str, str], list[tuple[float, float]]] = collections.defaultdict(list)
-    for (group, label, mass, slope), name, spec_seed in zip(rows, names, seeds):
+    for (group, label, mass, slope), spec in zip(rows, specs):
         if group.startswith("pm-sc:"):
-            where = group[6:] if args.scenario_seeds == 1 else f"{group[6:]} s{spec_seed}"
+            where = group[6:] if args.scenario_seeds == 1 else f"{group[6:]} s{spec.seed}"
             print(f"{where:24s} {label:28s} mass {mass:6.2f} %  slope {slope:5.2f} deg")
             group = "pm-sc"
         elif args.per_run:
-            print(f"{group}:{name:17s} {label:28s} mass {mass:6.2f} %  slope {slope:5.2f} deg")
+            print(f"{group}:{spec.name:17s} {label:28s} mass {mass:6.2f} %  slope {slope:5.2f} deg")
         by_group[(group, label)].append((mass, slope))
     print()
     for (group, label), v in sorted(by_group.items()):

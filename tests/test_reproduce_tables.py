@@ -82,14 +82,17 @@ PINNED_EVERY, PINNED_STEPS = 20, 400
 """Every 20th observation of the first 400 policy steps of each shipped policy's first held-out episode."""
 
 
-def _observations(run: Path, observer: str, env_kwargs: dict[str, Any]) -> np.ndarray:
+def _actions(policy: ModelPolicy, obs: np.ndarray) -> np.ndarray:
+    return np.stack([policy.act(o, {}) for o in obs])
+
+
+def _observations(policy: ModelPolicy, observer: str, env_kwargs: dict[str, Any]) -> np.ndarray:
     """Raw observations of the policy's own episode on the first held-out track (this machine's closed loop)."""
     import gymnasium as gym
 
     from agents.evaluation import ENV_ID
     from agents.training import wrap_env
 
-    policy = ModelPolicy(run)
     env = wrap_env(gym.make(ENV_ID, observer=observer, **env_kwargs), policy.shield, policy.residual,
                    policy.margin_schedule)
     obs, info = env.reset(seed=SEED)
@@ -109,10 +112,10 @@ def _rewrite_pinned_actions() -> None:
     for observer, seed in CASES:
         run, _ = _policy(observer, seed)
         env_kwargs = json.loads((run / "config.json").read_text())["env_kwargs"]
-        obs = _observations(run, observer, env_kwargs)
         policy = ModelPolicy(run)
+        obs = _observations(policy, observer, env_kwargs)
         arrays[f"{observer}_s{seed}/obs"] = obs
-        arrays[f"{observer}_s{seed}/action"] = np.stack([policy.act(o, {}) for o in obs])
+        arrays[f"{observer}_s{seed}/action"] = _actions(policy, obs)
     np.savez_compressed(PINNED_ACTIONS, **arrays)
 
 
@@ -125,8 +128,7 @@ def test_shipped_policy_acts_as_pinned(observer, seed):
     run, _ = _policy(observer, seed)
     with np.load(PINNED_ACTIONS) as data:
         obs, want = data[f"{observer}_s{seed}/obs"], data[f"{observer}_s{seed}/action"]
-    policy = ModelPolicy(run)
-    got = np.stack([policy.act(o, {}) for o in obs])
+    got = _actions(ModelPolicy(run), obs)
     # float32 products of another CPU's code path differ in the last bits (~1e-7); a changed policy by far more
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-5, err_msg=f"{run.name}: the shipped policy acts differently")
 

@@ -186,13 +186,17 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
         raise UnknownObserverError(
             f"unknown observer {name!r}; choose 'oracle', 'none' or an estimator: {', '.join(estimators.available())}"
         )
-    options = dict(options or {})
-    if not _GEOMETRY_OPTION_NAMES.get(name, frozenset()) & set(options):
-        options = {**PLANT_GEOMETRY_OPTIONS.get(name, {}), **options}
-    fault_free = FAULT_FREE_SENSOR_OPTIONS.get(name, {}) if fault_free_sensors else {}
-    if not set(fault_free) & set(options):
-        options = {**fault_free, **options}
+    options = _unless_stated(dict(options or {}), PLANT_GEOMETRY_OPTIONS.get(name, {}),
+                             _GEOMETRY_OPTION_NAMES.get(name, frozenset()))
+    if fault_free_sensors:
+        fault_free = FAULT_FREE_SENSOR_OPTIONS.get(name, {})
+        options = _unless_stated(options, fault_free, frozenset(fault_free))
     return EstimatorObserver(vehicle, name, options)
+
+
+def _unless_stated(options: dict[str, Any], known: Mapping[str, Any], names: frozenset[str]) -> dict[str, Any]:
+    """``known`` added to ``options`` unless ``options`` already state any of ``names`` themselves."""
+    return options if names & set(options) else {**known, **options}
 
 
 def worst_case_speed_limit_mps(vehicle: VehicleParams) -> float:

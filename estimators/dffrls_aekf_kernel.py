@@ -28,7 +28,7 @@ from uuom_core.vehicle import G_MPS2
 
 from . import filters
 from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-exported)
-    GAP_S, DT_NOM, RADIUS, M_ROT, M_REF, M_RIGID, C_MIN, C_MAX, MU0, MU_MAX, CUT_HZ, FAST_HZ, CHAIN_L, SWAY_DAMP,
+    GAP_S, DT_NOM, PROJECT_CLAMP, RADIUS, M_ROT, M_REF, M_RIGID, C_MIN, C_MAX, MU0, MU_MAX, CUT_HZ, FAST_HZ, CHAIN_L, SWAY_DAMP,
     SWAY_H, MIN_SPEED, MIN_FORCE, SETTLE_S, T_MAX, T_RATE, T_BAND, V_MAX, V_RATE, V_BAND, F_MAX, F_RATE, F_BAND,
     RELOCK, GATES, R0, R_MIN, R_MAX, FADING, ADAPT_R, ACC_VAR, MODEL_ACC_VAR, GRADE_VAR_M, P0_TH, GATE2, MAX_SLOPE,
     USE_ACCEL, HIST_DS, N_HIST, R_M, DELTA, SIGMA, MASS_FORGET, P0_C, P0_CD, P0_D, EST_MU, MAX_SPREAD, READY_VAR,
@@ -409,7 +409,10 @@ def step(S, H, C, torque, speed, accel, dt):
         pd -= k2 * ph2
     pc, pcd, pd = _repair(pc, pcd, pd, 1e-14, 1e-16)
     S[PC], S[PCD], S[PD] = pc, pcd, pd
+    c_free = c
     c = min(max(c, C[C_MIN]), C[C_MAX])
+    if C[PROJECT_CLAMP] != 0.0 and c != c_free:
+        dd += pcd / pc * (c - c_free)
     S[MC] = c
     if C[EST_MU] == 0.0:
         S[MD] = C[MU0] * c

@@ -69,7 +69,8 @@ CORR_N = 60
 N_BUF = 61  # history entries kept (>= N_HIST): the spread gate's reach
 MAX_AMBIG = 62  # the geometry bank's ambiguity gate (AMBIG above it: no mass update)
 EARLY_CAP = 63  # the geometry bank: most the early evidence (SCORE_EARLY) may tell the members apart
-N_C = 64
+PROJECT_CLAMP = 64  # a clamped mass moves the correlated parameters with it (estimate projection)
+N_C = 65
 # --- state S ------------------------------------------------------------------------------------------------------
 V = 0
 TH = 1

@@ -7,7 +7,7 @@ import math
 
 from uuom_core.vehicle import G_MPS2
 
-from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MAX_AMBIG, MB, MC, MD, MIN_ACC, MU_MAX,
+from .dffrls_aekf_layout import (PROJECT_CLAMP, C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MAX_AMBIG, MB, MC, MD, MIN_ACC, MU_MAX,
                                  N_MASS, OFF_FORGET, P0_B, P0_C, P0_D, PB, PC, PCB, PCD, PD, PDB, Q_C, R_M, RES_VAR,
                                  SIGMA)
 from .numba_shim import njit
@@ -90,7 +90,11 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
         p13 *= 0.7
         p23 *= 0.7
     S[PC], S[PCD], S[PD], S[PCB], S[PDB], S[PB] = p11, p12, p22, p13, p23, p33
+    c_free = c
     c = min(max(c, C[C_MIN]), C[C_MAX])
+    if C[PROJECT_CLAMP] != 0.0 and c != c_free:
+        o += p12 / p11 * (c - c_free)
+        b += p13 / p11 * (c - c_free)
     S[MC] = c
     S[MD] = min(max(o, -C[MU_MAX] * c), C[MU_MAX] * c)
     S[MB] = min(max(b, -0.2 * c), 1.2 * c)

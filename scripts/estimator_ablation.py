@@ -41,6 +41,7 @@ VARIANTS: list[tuple[str, str, dict]] = [
     ("- resistance estimated (vehicle file's mu)", "dffrls-aekf",
      {"estimate_mu": False, "offset_forgetting_ratio": 0.0}),
     ("- mass only from accelerations", "dffrls-aekf", {"min_accel_mps2": 0.0}),
+    ("- clamped mass moves the offset with it (projection)", "dffrls-aekf", {"clamp_projection": False}),
     ("- spike / innovation gates", "dffrls-aekf", {"gates": False}),
     ("- Sage-Husa R adaptation", "dffrls-aekf", {"adapt_r": False}),
     ("dffrls-aekf-paper (as printed)", "dffrls-aekf-paper", {}),

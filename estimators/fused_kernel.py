@@ -7,9 +7,9 @@ import math
 
 from uuom_core.vehicle import G_MPS2
 
-from .dffrls_aekf_layout import (PROJECT_CLAMP, C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MAX_AMBIG, MB, MC, MD, MIN_ACC, MU_MAX,
-                                 N_MASS, OFF_FORGET, P0_B, P0_C, P0_D, PB, PC, PCB, PCD, PD, PDB, Q_C, R_M, RES_VAR,
-                                 SIGMA)
+from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MAX_AMBIG, MB, MC, MD, MIN_ACC, MU_MAX,
+                                 N_MASS, OFF_FORGET, P0_B, P0_C, P0_D, PB, PC, PCB, PCD, PD, PDB, PROJECT_CLAMP, Q_C,
+                                 R_M, RES_VAR, SIGMA)
 from .numba_shim import njit
 
 __all__ = ["fused_mass_step"]

@@ -126,6 +126,18 @@ class DFFRLSAEKFConfig:
         --scenario-seeds 10`` (True / False): max mass error after 10 s, point-mass scenarios over ten sensor seeds
         p95 / max 14.3 / 17.7 % vs 14.6 / 47.7 % (``fused`` 15.6 / 22.7 vs 18.7 / 68.5 %); random plant runs p95
         22.2 vs 27.4 % (``fused`` 28.3 vs 35.9 %); tuning runs unchanged (no clamp reached).
+    chain_length_factors : tuple of float
+        (A) The chain-length bank: the load's pendulum simulated for each of these multiples of ``chain_length_m``
+        side by side, their load accelerations weighted by how well each explains the force balance (the evidence
+        of :mod:`estimators.geometry_bank`, counted on the residual with the current parameters), so the regression
+        sees the swing of the chains the data support. ``()`` or one factor: that one pendulum. The grid, 0.7-1.4
+        (0.35-0.5 Hz at 2 m), was chosen on plant tuning runs 1000-1015 against 0.5-2.0 in 1/3-octave steps
+        (median mass max error 5.7 vs 7.6 %, session 19).
+    chain_prior_std : float
+        Prior of the bank's chain length: log-normal around ``chain_length_m`` with this standard deviation of
+        ``ln L`` (each member starts with ``0.5 (ln f / std)²`` nats against it; ``inf``: a flat prior). 0.4 chosen
+        on plant tuning runs 1000-1015 among 0.22 / 0.4 / inf (median / p95 mass max error 5.65 / 15.0, 5.43 /
+        14.4, 5.71 / 14.0 %).
     """
 
     use_accel: bool = True
@@ -172,6 +184,8 @@ class DFFRLSAEKFConfig:
     gap_s: float = MAX_STEP_S
     dt_nominal_s: float = 0.005
     clamp_projection: bool = True
+    chain_length_factors: tuple[float, ...] = (0.7, 0.85, 1.0, 1.2, 1.4)
+    chain_prior_std: float = 0.4
 
     def settings(self, v: VehicleParams) -> np.ndarray:
         """The kernel's settings array for vehicle ``v`` (validates every value)."""
@@ -236,6 +250,23 @@ class DFFRLSAEKFConfig:
         C[kern.CHAIN_L] = chain
         C[kern.SWAY_DAMP] = 2.0 * self.sway_damping_ratio * math.sqrt(G_MPS2 * chain)
         C[kern.SWAY_H] = 0.5 * math.sqrt(chain / G_MPS2) if chain > 0 else 1.0
+        factors = tuple(self.chain_length_factors)
+        if len(factors) > kern.MAX_CHAINS or not all(
+                not isinstance(f, bool) and isinstance(f, (int, float)) and 0.0 < f < math.inf for f in factors):
+            raise ValueError(f"dffrls-aekf: chain_length_factors must be at most {kern.MAX_CHAINS} finite numbers > 0, "
+                             f"got {self.chain_length_factors!r}")
+        sp = self.chain_prior_std
+        if isinstance(sp, bool) or not isinstance(sp, (int, float)) or not sp > 0:
+            raise ValueError(f"dffrls-aekf: chain_prior_std must be a number > 0 (inf: a flat prior), got {sp!r}")
+        if chain > 0 and len(factors) > 1:
+            C[kern.N_CHAIN] = float(len(factors))
+            for k, f in enumerate(factors):
+                L_k = chain * f
+                j = kern.CHAIN_SET + kern.CHAIN_SET_W * k
+                C[j] = L_k
+                C[j + 1] = 2.0 * self.sway_damping_ratio * math.sqrt(G_MPS2 * L_k)
+                C[j + 2] = 0.5 * math.sqrt(L_k / G_MPS2)
+                C[j + 3] = 0.5 * (math.log(f) / self.chain_prior_std) ** 2
         C[kern.MIN_SPEED] = self.min_speed_mps
         C[kern.MIN_ACC] = self.min_accel_mps2
         C[kern.OFF_FORGET] = self.offset_forgetting_ratio
@@ -381,6 +412,27 @@ class DFFRLSAEKF(Estimator):
         return EstimateSeries(t if t is not trace["t_s"] else t.copy(), rows[0], rows[1], rows[2], rows[3], extras)
 
     # views for tests and diagnostics ---------------------------------------------------------------------------
+    @property
+    def chain_weights(self) -> np.ndarray:
+        """The chain-length bank's weights (normalised evidence), one per ``chain_length_factors`` entry; ``[1.0]``
+        for a single pendulum."""
+        nk = int(self.C[kern.N_CHAIN])
+        if nk == 0:
+            return np.ones(1)
+        score = self.S[kern.CHAIN_ST + 6:kern.CHAIN_ST + kern.CHAIN_ST_W * nk:kern.CHAIN_ST_W]
+        w = np.exp(score.min() - score)
+        return w / w.sum()
+
+    @property
+    def chain_length_estimate_m(self) -> float:
+        """The chain length the bank's evidence supports: the weighted mean of its members' (the single
+        pendulum's length without a bank)."""
+        nk = int(self.C[kern.N_CHAIN])
+        if nk == 0:
+            return float(self.C[kern.CHAIN_L])
+        lengths = self.C[kern.CHAIN_SET:kern.CHAIN_SET + kern.CHAIN_SET_W * nk:kern.CHAIN_SET_W]
+        return float(np.dot(self.chain_weights, lengths))
+
     @property
     def slope_P(self) -> np.ndarray:
         """Covariance of the slope layer's ``[v, θ_s]``."""

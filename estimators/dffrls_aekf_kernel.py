@@ -38,7 +38,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
-    EST_SCORE,
+    EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
@@ -104,6 +104,8 @@ def reset(S, H, C):
     S[MB] = 0.5 * c0  # fused: beta = c alpha, alpha = 0.5 (weight of the slope under the sensors) a priori
     S[PB] = C[P0_B]
     S[NIS] = 1.0  # its expected value until the first speed correction (an output is never NaN)
+    for k in range(int(C[N_CHAIN])):
+        S[CHAIN_ST + CHAIN_ST_W * k + 6] = C[CHAIN_SET + CHAIN_SET_W * k + 3]
     H[:] = 0.0
 
 
@@ -116,6 +118,11 @@ def _restart_filters(S):
     S[PREV_VQ] = math.nan
     S[SWAY] = 0.0
     S[SWAY_RATE] = 0.0
+    for k in range(MAX_CHAINS):  # the chain-length bank's pendulums too (their evidence is kept)
+        i = CHAIN_ST + CHAIN_ST_W * k
+        S[i] = 0.0
+        S[i + 1] = 0.0
+        S[i + 4] = 0.0
 
 
 @njit(cache=True)
@@ -130,6 +137,65 @@ def _restart_signals(S, H):
     S[V] = math.nan
     S[MOVED] = 0.0
     S[HSUM] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _swing(S, i, L, damp, h_max, a_fast, dt):
+    """The load on chains of length ``L``: a pendulum forced by the train's acceleration, its angle and rate at
+    ``S[i]``, ``S[i + 1]`` (semi-implicit Euler, sub-stepped to ``h_max``; dt is at most GAP_S here, so the
+    sub-step count is bounded). Returns the load's along-track acceleration before the step."""
+    g = G_MPS2
+    sw, sr = S[i], S[i + 1]
+    a_load = -g * sw - damp * sr
+    n_sub = 1 if dt <= h_max else int(math.ceil(dt / h_max))
+    h = dt / n_sub
+    for _ in range(n_sub):
+        sr += h * (-g * sw - damp * sr - a_fast) / L
+        sw += h * sr
+    S[i], S[i + 1] = sw, sr
+    return a_load
+
+
+@njit(cache=True, inline="always")
+def _chain_bank_accel(S, C, a_fast, dt, a):
+    """The chain-length bank: every member's pendulum stepped and low-passed; returns their load accelerations
+    weighted by the evidence, ``exp(-score)`` (the swing angle and rate so weighted go to ``S[SWAY]``)."""
+    nk = int(C[N_CHAIN])
+    lo = math.inf
+    for k in range(nk):
+        lo = min(lo, S[CHAIN_ST + CHAIN_ST_W * k + 6])
+    w_sum = mix = sw = sr = 0.0
+    for k in range(nk):
+        i = CHAIN_ST + CHAIN_ST_W * k
+        j = CHAIN_SET + CHAIN_SET_W * k
+        a_k = _lp(S, i + 2, _swing(S, i, C[j], C[j + 1], C[j + 2], a_fast, dt), a)
+        S[i + 5] = a_k
+        w = math.exp(lo - S[i + 6])
+        w_sum += w
+        mix += w * a_k
+        sw += w * S[i]
+        sr += w * S[i + 1]
+    S[SWAY] = sw / w_sum
+    S[SWAY_RATE] = sr / w_sum
+    return mix / w_sum
+
+
+@njit(cache=True, inline="always")
+def _chain_bank_score(S, C, e_mix, a_mix, s_var):
+    """Add each chain length's evidence: the force-balance residual ``e_mix`` of the weighted swing, moved to
+    member k's swing (the load's share of the mass times the difference of the accelerations), as a Gaussian
+    negative log-likelihood counted once per ~CORR_N correlated samples and capped per sample (a fault cannot
+    decide). Scores are kept relative to the best (bounded numbers)."""
+    nk = int(C[N_CHAIN])
+    swing_c = C[M_RIGID] / C[M_REF] - S[MC]  # minus the swinging load's mass / M_ref
+    lo = math.inf
+    for k in range(nk):
+        i = CHAIN_ST + CHAIN_ST_W * k
+        e = e_mix + swing_c * (S[i + 5] - a_mix)
+        S[i + 6] += 0.5 * min(e * e / s_var, 25.0) / C[CORR_N]
+        lo = min(lo, S[i + 6])
+    for k in range(nk):
+        S[CHAIN_ST + CHAIN_ST_W * k + 6] -= lo
 
 
 @njit(cache=True)
@@ -302,16 +368,10 @@ def step(S, H, C, torque, speed, accel, dt):
         pq = S[PREV_VQ]
         S[PREV_VQ] = vq
         a_fast = (vq - pq) / dt if pq == pq else 0.0
-        L = C[CHAIN_L]
-        sw, sr = S[SWAY], S[SWAY_RATE]
-        a_load = -g * sw - C[SWAY_DAMP] * sr
-        n_sub = 1 if dt <= C[SWAY_H] else int(math.ceil(dt / C[SWAY_H]))
-        h = dt / n_sub
-        for _ in range(n_sub):
-            sr += h * (-g * sw - C[SWAY_DAMP] * sr - a_fast) / L
-            sw += h * sr
-        S[SWAY], S[SWAY_RATE] = sw, sr
-        a_load_f = _lp(S, LA1, a_load, a)
+        if C[N_CHAIN] > 0.0:
+            a_load_f = _chain_bank_accel(S, C, a_fast, dt, a)
+        else:
+            a_load_f = _lp(S, LA1, _swing(S, SWAY, C[CHAIN_L], C[SWAY_DAMP], C[SWAY_H], a_fast, dt), a)
     else:
         a_load_f = acc_f
     S[A_LOAD] = a_load_f
@@ -328,6 +388,14 @@ def step(S, H, C, torque, speed, accel, dt):
     if not usable:
         return
     y = (F - C[M_ROT] * acc_f - C[M_RIGID] * (acc_f - a_load_f)) / C[M_REF]
+    if C[N_CHAIN] > 0.0 and C[CHAIN_L] > 0.0:
+        # evidence for each chain length: the force balance with the current parameters, before they update
+        hl = a_load_f + g * sin_lp
+        if C[FUSED] != 0.0:
+            e_mix = y - hl * S[MC] - g * S[MD] - g * (sin_loc_lp - sin_lp) * S[MB]
+        else:
+            e_mix = y - hl * S[MC] - (g * cos_lp if C[OFF_FORGET] == 0.0 else g) * S[MD]
+        _chain_bank_score(S, C, e_mix, a_load_f, max(S[RES_VAR], C[R_M]))
     if C[FUSED] == 0.0 and S[MOVED] != 0.0:
         # evidence for this estimator's slope geometry (estimators.geometry_bank): the Gaussian negative
         # log-likelihood of the force balance predicted before the update, counted once per ~CORR_N correlated

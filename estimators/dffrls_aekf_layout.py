@@ -70,7 +70,12 @@ N_BUF = 61  # history entries kept (>= N_HIST): the spread gate's reach
 MAX_AMBIG = 62  # the geometry bank's ambiguity gate (AMBIG above it: no mass update)
 EARLY_CAP = 63  # the geometry bank: most the early evidence (SCORE_EARLY) may tell the members apart
 PROJECT_CLAMP = 64  # a clamped mass moves the correlated parameters with it (estimate projection)
-N_C = 65
+N_CHAIN = 65  # members of the chain-length bank (0: one pendulum, CHAIN_L)
+CHAIN_SET = 66  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+#   score (negative log prior weight, nats)
+CHAIN_SET_W = 4
+MAX_CHAINS = 8
+N_C = CHAIN_SET + CHAIN_SET_W * MAX_CHAINS
 # --- state S ------------------------------------------------------------------------------------------------------
 V = 0
 TH = 1
@@ -145,7 +150,10 @@ NIS = 69  # normalised innovation squared of the last accepted speed correction 
 SCORE = 70  # accumulated negative log-likelihood of the force balance (the geometry bank's evidence)
 AMBIG = 71  # written by the geometry bank: how much its members disagree on the slope gravity acts on (rad)
 SCORE_EARLY = 72  # as SCORE, while the slope window still holds the start-up guess (the bank caps its weight)
-N_S = 73
+CHAIN_ST = 73  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
+#   low-pass of its load acceleration (3 slots), that acceleration, its force-balance evidence (negative log-lik.)
+CHAIN_ST_W = 7
+N_S = CHAIN_ST + CHAIN_ST_W * MAX_CHAINS
 N_HIST_MAX = 512
 # --- estimate row: what estimate() writes (mass, slope, their stds, mu, mu_std, alpha, nis, score) -------------
 N_EST = 9

@@ -36,6 +36,7 @@ VARIANTS: list[tuple[str, str, dict]] = [
      {"max_early_evidence": 0.0}),
     ("- accelerometer drives the slope EKF (paper's torque/mass model)", "dffrls-aekf", {"use_accel": False}),
     ("- load pendulum in the regression (rigid load)", "dffrls-aekf", {"chain_length_m": 0.0}),
+    ("- chain-length bank (one pendulum on the vehicle file's chains)", "dffrls-aekf", {"chain_length_factors": ()}),
     ("- vector forgetting (paper's single lambda)", "dffrls-aekf", {"mass_forgetting_ratio": 1.0}),
     ("- offset parameter (mu cos(theta) regressor)", "dffrls-aekf", {"offset_forgetting_ratio": 0.0}),
     ("- resistance estimated (vehicle file's mu)", "dffrls-aekf",

@@ -72,7 +72,9 @@ def test_env_and_cli_accept_fused(tmp_path) -> None:
 def test_blend_gate_holds_the_mass_while_the_blend_is_uncertain() -> None:
     # the fault-recovery trace with a 3 s dropout (tests/test_estimators_faults.py): after the restart the blend's
     # variance is wide again and the grades differ, so without the gate the mass re-learns from the restart's
-    # transient (measured: 3.4 t off the clean run 12-27 s later; with the gate 410 kg)
+    # transient (measured: 3.4 t off the clean run 12-27 s later; with the gate 410 kg). Shown with one pendulum on
+    # the vehicle file's chains, the model of session 10's measurement; this trace's load is rigid, and with the
+    # chain-length bank (session 19) both runs sit 3-6 t low, a baseline the gate cannot be judged against
     from estimators.fault_injection import inject, run_outputs, seven_channel_rows
 
     assert estimators.make("fused").config.max_geometry_ambiguity_rad == 0.002
@@ -81,6 +83,7 @@ def test_blend_gate_holds_the_mass_while_the_blend_is_uncertain() -> None:
     scored = slice(5000, None)
 
     def drift(**options: float) -> float:
+        options = {"chain_length_factors": (), **options}
         clean = run_outputs("fused", rows, **options)["mass"][scored]
         return float(np.mean(np.abs(run_outputs("fused", bad, **options)["mass"][scored] - clean)))
 

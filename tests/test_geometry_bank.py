@@ -173,9 +173,12 @@ def test_no_mass_learnt_while_the_geometry_is_ambiguous() -> None:
         changed += any(moved)
     assert held > 1000 and changed > 1000  # the gate closed for seconds, and the masses learnt elsewhere
     # without the gate (and without the early evidence that leans the bank to the point mass before the window
-    # is measured) the window member learns the ramp's slope lag as mass
-    mass_gated, _ = _errors(tr, GeometryBank(max_early_evidence=0.0).run(tr))
-    mass_open, _ = _errors(tr, GeometryBank(max_early_evidence=0.0, max_geometry_ambiguity_rad=math.inf).run(tr))
+    # is measured) the window member learns the ramp's slope lag as mass. Shown with one pendulum on the vehicle
+    # file's chains: with the chain-length bank (the default since session 19) this trace's worst error is set by
+    # the swing, 13.1 % gated against 11.4 % open; what the gate is worth over many runs is in the ablation table
+    one = {"max_early_evidence": 0.0, "chain_length_factors": ()}
+    mass_gated, _ = _errors(tr, GeometryBank(**one).run(tr))
+    mass_open, _ = _errors(tr, GeometryBank(**one, max_geometry_ambiguity_rad=math.inf).run(tr))
     assert mass_gated < mass_open
 
 

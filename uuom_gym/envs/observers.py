@@ -37,6 +37,16 @@ _GEOMETRY_OPTION_NAMES: dict[str, frozenset[str]] = {
 }
 """Options that state the geometry themselves: given any of them, the plant's entry above is not added."""
 
+PLANT_SWING_OPTIONS: dict[str, dict[str, Any]] = {
+    "dffrls-aekf": {"chain_length_factors": ()},
+    "fused": {"chain_length_factors": ()},
+}
+"""What the env's plant tells an observer about its load's swing unless the observer options say otherwise: its
+chains are the vehicle file's (``PlantConfig.chain_length_m`` None), so one pendulum of that length, not the bank
+over chain lengths these estimators carry offline (``chain_length_factors``), where the chains are unknown."""
+
+_SWING_OPTION_NAMES = frozenset({"chain_length_factors", "chain_length_m", "chain_prior_std"})
+
 FAULT_FREE_SENSOR_OPTIONS: dict[str, dict[str, Any]] = {
     "mmae": {"torque_jump_fraction": 0.0, "stuck_repeats": 0},
 }
@@ -162,7 +172,7 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
     """The observer called ``name`` (``"oracle"``, ``"none"`` or a registered estimator).
 
     The env's plant adds what it knows about itself to the estimator's options: its geometry
-    (:data:`PLANT_GEOMETRY_OPTIONS`) and, with ``fault_free_sensors``, that no sensor spikes or freezes
+    (:data:`PLANT_GEOMETRY_OPTIONS`), its load's chains (:data:`PLANT_SWING_OPTIONS`) and, with ``fault_free_sensors``, that no sensor spikes or freezes
     (:data:`FAULT_FREE_SENSOR_OPTIONS`); options given by name take precedence.
 
     Raises
@@ -188,6 +198,7 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
         )
     options = _unless_stated(dict(options or {}), PLANT_GEOMETRY_OPTIONS.get(name, {}),
                              _GEOMETRY_OPTION_NAMES.get(name, frozenset()))
+    options = _unless_stated(options, PLANT_SWING_OPTIONS.get(name, {}), _SWING_OPTION_NAMES)
     if fault_free_sensors:
         fault_free = FAULT_FREE_SENSOR_OPTIONS.get(name, {})
         options = _unless_stated(options, fault_free, frozenset(fault_free))

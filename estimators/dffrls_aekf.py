@@ -130,7 +130,8 @@ class DFFRLSAEKFConfig:
         (A) The chain-length bank: the load's pendulum simulated for each of these multiples of ``chain_length_m``
         side by side, their load accelerations weighted by how well each explains the force balance (the evidence
         of :mod:`estimators.geometry_bank`, counted on the residual with the current parameters), so the regression
-        sees the swing of the chains the data support. ``()`` or one factor: that one pendulum. The grid, 0.7-1.4
+        sees the swing of the chains the data support. ``()``: one pendulum on ``chain_length_m``; ``(f,)``: one on
+        ``f`` times it. The grid, 0.7-1.4
         (0.35-0.5 Hz at 2 m), was chosen on plant tuning runs 1000-1015 against 0.5-2.0 in 1/3-octave steps
         (median mass max error 5.7 vs 7.6 %, session 19).
     chain_prior_std : float
@@ -218,6 +219,7 @@ class DFFRLSAEKFConfig:
             raise ValueError(f"dffrls-aekf: prior_mass_kg must lie in [{v.empty_mass_kg}, {v.max_mass_kg}], "
                              f"got {self.prior_mass_kg!r}")
         chain, hook = swing_geometry(v, self.chain_length_m, self.hook_mass_kg, "dffrls-aekf: ")
+        factors = self._chain_factors()
         length = v.length_m if self.train_length_m is None else float(self.train_length_m)
         if not (0.0 <= length < math.inf):
             raise ValueError(f"dffrls-aekf: train_length_m must be a finite number >= 0, got {self.train_length_m!r}")
@@ -247,18 +249,13 @@ class DFFRLSAEKFConfig:
         C[kern.MU_MAX] = self.mu_max
         C[kern.CUT_HZ] = self.cutoff_hz
         C[kern.FAST_HZ] = 5.0  # speed for the pendulum's forcing: well above the swing (0.35 Hz at 2 m)
-        C[kern.CHAIN_L] = chain
-        C[kern.SWAY_DAMP] = 2.0 * self.sway_damping_ratio * math.sqrt(G_MPS2 * chain)
-        C[kern.SWAY_H] = 0.5 * math.sqrt(chain / G_MPS2) if chain > 0 else 1.0
-        factors = tuple(self.chain_length_factors)
-        if len(factors) > kern.MAX_CHAINS or not all(
-                not isinstance(f, bool) and isinstance(f, (int, float)) and 0.0 < f < math.inf for f in factors):
-            raise ValueError(f"dffrls-aekf: chain_length_factors must be at most {kern.MAX_CHAINS} finite numbers > 0, "
-                             f"got {self.chain_length_factors!r}")
+        C[kern.CHAIN_L] = chain * (factors[0] if len(factors) == 1 else 1.0)
+        C[kern.SWAY_DAMP] = 2.0 * self.sway_damping_ratio * math.sqrt(G_MPS2 * C[kern.CHAIN_L])
+        C[kern.SWAY_H] = 0.5 * math.sqrt(C[kern.CHAIN_L] / G_MPS2) if chain > 0 else 1.0
         sp = self.chain_prior_std
         if isinstance(sp, bool) or not isinstance(sp, (int, float)) or not sp > 0:
             raise ValueError(f"dffrls-aekf: chain_prior_std must be a number > 0 (inf: a flat prior), got {sp!r}")
-        if chain > 0 and len(factors) > 1:
+        if chain > 0 and len(factors) > 1:  # the bank (one factor: that one pendulum, CHAIN_L above)
             C[kern.N_CHAIN] = float(len(factors))
             for k, f in enumerate(factors):
                 L_k = chain * f
@@ -316,6 +313,17 @@ class DFFRLSAEKFConfig:
         C[kern.PROJECT_CLAMP] = float(bool(self.clamp_projection))
         C[kern.Q_C] = 1e-12  # a tiny random walk: never fully rigid
         return C
+
+    def _chain_factors(self) -> tuple[float, ...]:
+        try:
+            factors = tuple(self.chain_length_factors)
+        except TypeError:
+            factors = (math.nan,)  # not a sequence: reported below
+        if len(factors) > kern.MAX_CHAINS or not all(
+                not isinstance(f, bool) and isinstance(f, (int, float)) and 0.0 < f < math.inf for f in factors):
+            raise ValueError(f"dffrls-aekf: chain_length_factors must be at most {kern.MAX_CHAINS} finite numbers > 0, "
+                             f"got {self.chain_length_factors!r}")
+        return factors
 
 
 _FIELDS = frozenset(f.name for f in dataclasses.fields(DFFRLSAEKFConfig))

@@ -1,6 +1,6 @@
 """The compiled per-sample step of ``dffrls-aekf`` and ``fused`` (see :mod:`estimators.dffrls_aekf` for the method).
 
-About 420 lines on purpose: :func:`step` is one compiled function over three arrays (its helpers are inlined by
+About 540 lines on purpose: :func:`step` is one compiled function over three arrays (its helpers are inlined by
 numba); the array layout is in :mod:`estimators.dffrls_aekf_layout`, the fused regression in
 :mod:`estimators.fused_kernel`.
 

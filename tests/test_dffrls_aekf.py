@@ -237,6 +237,7 @@ def test_chain_bank_finds_the_chains_and_keeps_the_mass(name: str) -> None:
     ({"chain_length_factors": (1.0, math.nan)}, "chain_length_factors"),
     ({"chain_length_factors": (1.0, -0.5)}, "chain_length_factors"),
     ({"chain_length_factors": tuple(0.5 + 0.1 * k for k in range(kern.MAX_CHAINS + 1))}, "chain_length_factors"),
+    ({"chain_length_factors": 2.0}, "chain_length_factors"),
     ({"chain_prior_std": 0.0}, "chain_prior_std"),
     ({"chain_prior_std": math.nan}, "chain_prior_std"),
 ])
@@ -258,3 +259,5 @@ def test_env_observer_is_told_the_plants_chains() -> None:
             assert member.C[kern.N_CHAIN] == 0.0 and member.C[kern.CHAIN_L] == v.chain_length_m
     est = make_observer("fused", v, {"chain_prior_std": 1.0}).estimator
     assert est.C[kern.N_CHAIN] == 5.0
+    one = estimators.make("fused", chain_length_factors=(1.25,))  # one factor: one pendulum on 1.25 x the file's
+    assert one.C[kern.N_CHAIN] == 0.0 and one.C[kern.CHAIN_L] == pytest.approx(1.25 * v.chain_length_m)

@@ -172,8 +172,9 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
     """The observer called ``name`` (``"oracle"``, ``"none"`` or a registered estimator).
 
     The env's plant adds what it knows about itself to the estimator's options: its geometry
-    (:data:`PLANT_GEOMETRY_OPTIONS`), its load's chains (:data:`PLANT_SWING_OPTIONS`) and, with ``fault_free_sensors``, that no sensor spikes or freezes
-    (:data:`FAULT_FREE_SENSOR_OPTIONS`); options given by name take precedence.
+    (:data:`PLANT_GEOMETRY_OPTIONS`), its load's chains (:data:`PLANT_SWING_OPTIONS`) and, with
+    ``fault_free_sensors``, that no sensor spikes or freezes (:data:`FAULT_FREE_SENSOR_OPTIONS`); options given by
+    name take precedence.
 
     Raises
     ------

@@ -250,20 +250,15 @@ class DFFRLSAEKFConfig:
         C[kern.CUT_HZ] = self.cutoff_hz
         C[kern.FAST_HZ] = 5.0  # speed for the pendulum's forcing: well above the swing (0.35 Hz at 2 m)
         C[kern.CHAIN_L] = chain * (factors[0] if len(factors) == 1 else 1.0)
-        C[kern.SWAY_DAMP] = 2.0 * self.sway_damping_ratio * math.sqrt(G_MPS2 * C[kern.CHAIN_L])
-        C[kern.SWAY_H] = 0.5 * math.sqrt(C[kern.CHAIN_L] / G_MPS2) if chain > 0 else 1.0
-        sp = self.chain_prior_std
-        if isinstance(sp, bool) or not isinstance(sp, (int, float)) or not sp > 0:
-            raise ValueError(f"dffrls-aekf: chain_prior_std must be a number > 0 (inf: a flat prior), got {sp!r}")
+        C[kern.SWAY_DAMP], C[kern.SWAY_H] = self._pendulum(C[kern.CHAIN_L])
         if chain > 0 and len(factors) > 1:  # the bank (one factor: that one pendulum, CHAIN_L above)
             C[kern.N_CHAIN] = float(len(factors))
+            prior = [0.5 * (math.log(f) / self.chain_prior_std) ** 2 for f in factors]
             for k, f in enumerate(factors):
-                L_k = chain * f
                 j = kern.CHAIN_SET + kern.CHAIN_SET_W * k
-                C[j] = L_k
-                C[j + 1] = 2.0 * self.sway_damping_ratio * math.sqrt(G_MPS2 * L_k)
-                C[j + 2] = 0.5 * math.sqrt(L_k / G_MPS2)
-                C[j + 3] = 0.5 * (math.log(f) / self.chain_prior_std) ** 2
+                C[j] = chain * f
+                C[j + 1], C[j + 2] = self._pendulum(C[j])
+                C[j + 3] = prior[k] - min(prior)  # scores are kept relative to the best (the kernel's invariant)
         C[kern.MIN_SPEED] = self.min_speed_mps
         C[kern.MIN_ACC] = self.min_accel_mps2
         C[kern.OFF_FORGET] = self.offset_forgetting_ratio
@@ -314,7 +309,16 @@ class DFFRLSAEKFConfig:
         C[kern.Q_C] = 1e-12  # a tiny random walk: never fully rigid
         return C
 
+    def _pendulum(self, chain_m: float) -> tuple[float, float]:
+        """The kernel's damping coefficient and largest integration step of the load's pendulum on ``chain_m``."""
+        return (2.0 * self.sway_damping_ratio * math.sqrt(G_MPS2 * chain_m),
+                0.5 * math.sqrt(chain_m / G_MPS2) if chain_m > 0 else 1.0)
+
     def _chain_factors(self) -> tuple[float, ...]:
+        """``chain_length_factors`` as a tuple, checked together with ``chain_prior_std``."""
+        sp = self.chain_prior_std
+        if isinstance(sp, bool) or not isinstance(sp, (int, float)) or not sp > 0:
+            raise ValueError(f"dffrls-aekf: chain_prior_std must be a number > 0 (inf: a flat prior), got {sp!r}")
         try:
             factors = tuple(self.chain_length_factors)
         except TypeError:

@@ -159,18 +159,16 @@ def _swing(S, i, L, damp, h_max, a_fast, dt):
 @njit(cache=True, inline="always")
 def _chain_bank_accel(S, C, a_fast, dt, a):
     """The chain-length bank: every member's pendulum stepped and low-passed; returns their load accelerations
-    weighted by the evidence, ``exp(-score)`` (the swing angle and rate so weighted go to ``S[SWAY]``)."""
+    weighted by the evidence, ``exp(-score)`` (the swing angle and rate so weighted go to ``S[SWAY]``). The scores
+    are relative to the best, whose is 0 (the prior's so set, :func:`_chain_bank_score` keeps it so)."""
     nk = int(C[N_CHAIN])
-    lo = math.inf
-    for k in range(nk):
-        lo = min(lo, S[CHAIN_ST + CHAIN_ST_W * k + 6])
     w_sum = mix = sw = sr = 0.0
     for k in range(nk):
         i = CHAIN_ST + CHAIN_ST_W * k
         j = CHAIN_SET + CHAIN_SET_W * k
         a_k = _lp(S, i + 2, _swing(S, i, C[j], C[j + 1], C[j + 2], a_fast, dt), a)
         S[i + 5] = a_k
-        w = math.exp(lo - S[i + 6])
+        w = math.exp(-S[i + 6])
         w_sum += w
         mix += w * a_k
         sw += w * S[i]
@@ -388,14 +386,16 @@ def step(S, H, C, torque, speed, accel, dt):
     if not usable:
         return
     y = (F - C[M_ROT] * acc_f - C[M_RIGID] * (acc_f - a_load_f)) / C[M_REF]
-    if C[N_CHAIN] > 0.0 and C[CHAIN_L] > 0.0:
-        # evidence for each chain length: the force balance with the current parameters, before they update
-        hl = a_load_f + g * sin_lp
-        if C[FUSED] != 0.0:
-            e_mix = y - hl * S[MC] - g * S[MD] - g * (sin_loc_lp - sin_lp) * S[MB]
-        else:
-            e_mix = y - hl * S[MC] - (g * cos_lp if C[OFF_FORGET] == 0.0 else g) * S[MD]
-        _chain_bank_score(S, C, e_mix, a_load_f, max(S[RES_VAR], C[R_M]))
+    # the force balance predicted with the current parameters, before they update: the evidence of the chain-length
+    # bank and of the geometry bank
+    hs = a_load_f + g * sin_lp
+    if C[FUSED] != 0.0:
+        e_s = y - hs * S[MC] - g * S[MD] - g * (sin_loc_lp - sin_lp) * S[MB]
+    else:
+        e_s = y - hs * S[MC] - (g * cos_lp if C[OFF_FORGET] == 0.0 else g) * S[MD]
+    s_s = max(S[RES_VAR], C[R_M])
+    if C[N_CHAIN] > 0.0:
+        _chain_bank_score(S, C, e_s, a_load_f, s_s)
     if C[FUSED] == 0.0 and S[MOVED] != 0.0:
         # evidence for this estimator's slope geometry (estimators.geometry_bank): the Gaussian negative
         # log-likelihood of the force balance predicted before the update, counted once per ~CORR_N correlated
@@ -403,10 +403,6 @@ def step(S, H, C, torque, speed, accel, dt):
         # skips, since they are what tells a point mass from a long train. Kept apart while the history still
         # holds the start-up guess (a window member's slope is then partly an assumption, not its geometry: the
         # bank caps what that early evidence may decide)
-        hs = a_load_f + g * sin_lp
-        hc = g * cos_lp if C[OFF_FORGET] == 0.0 else g
-        e_s = y - hs * S[MC] - hc * S[MD]
-        s_s = max(S[RES_VAR], C[R_M])
         nll = 0.5 * (min(e_s * e_s / s_s, 25.0) + math.log(s_s)) / C[CORR_N]
         if S[DIST] - S[DIST0] > C[N_BUF] * C[HIST_DS]:
             S[SCORE] += nll

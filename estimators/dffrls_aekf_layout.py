@@ -72,7 +72,7 @@ EARLY_CAP = 63  # the geometry bank: most the early evidence (SCORE_EARLY) may t
 PROJECT_CLAMP = 64  # a clamped mass moves the correlated parameters with it (estimate projection)
 N_CHAIN = 65  # members of the chain-length bank (0: one pendulum, CHAIN_L)
 CHAIN_SET = 66  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
-#   score (negative log prior weight, nats)
+#   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8
 N_C = CHAIN_SET + CHAIN_SET_W * MAX_CHAINS

@@ -42,8 +42,9 @@ def _options(model: str, meta: dict[str, str]) -> dict[str, Any]:
             "sway_damping_ratio": float(meta["sway_damping"])}
 
 
-def _score(job: tuple[str, str, RunSpec]) -> tuple[str, str, float, float, float, float]:
-    """(estimator, set, mass max %, slope RMSE °, true chain m, bank's chain m) per model, flattened per job."""
+def _score(job: tuple[str, str, RunSpec]) -> list[tuple[str, str, str, float, float, float, float]]:
+    """One row per swing model: (estimator, set, model, mass max %, slope RMSE °, true chain m, chain m at the end
+    (the first member's evidence-weighted length; the told length for one pendulum))."""
     name, label, spec = job
     trace = make_run(spec)
     t = trace["t_s"]

@@ -185,6 +185,10 @@ class UUOMTrackEnv(gym.Env):
     * v0 (rev. 8, no id change, behaviour unchanged): the registered ``mmae`` detects torque spikes and a stuck
       accelerometer by default (``estimators.input_faults``); with ``sensor_faults=None`` the env's sensors have
       neither, and it turns the detectors off (``observers.FAULT_FREE_SENSOR_OPTIONS``), so episodes are identical.
+    * v0 (rev. 9, no id change, behaviour unchanged): the registered ``dffrls-aekf`` and ``fused`` identify the load's
+      chain length (a bank over 0.7-1.4x the vehicle file's, ``chain_length_factors``); the env's plant hangs the
+      load on the file's chains and tells them one pendulum of that length (``observers.PLANT_SWING_OPTIONS``), so
+      episodes are identical.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -38,7 +38,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
-    EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W,
+    EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
@@ -112,7 +112,7 @@ def reset(S, H, C):
 @njit(cache=True, inline="always")
 def _restart_filters(S):
     """Restart the signal low-passes at the next sample, forget the speed differences, stop the load pendulum."""
-    for i in (LF_OK, LV_OK, LQ_OK, LA_OK, LS_OK, LC_OK, LL_OK):
+    for i in (LF_OK, LV_OK, LQ_OK, LA_OK, LS_OK, LC_OK, LL_OK, LG_OK):
         S[i] = 0.0
     S[PREV_VF] = math.nan
     S[PREV_VQ] = math.nan
@@ -357,7 +357,17 @@ def step(S, H, C, torque, speed, accel, dt):
         th_train = S[TH_TRAIN]
         sin_lp = _lp(S, LS1, math.sin(th_train), a)
         cos_lp = _lp(S, LC1, math.cos(th_train), a)
-        sin_loc_lp = sin_lp
+        sin_loc_lp = _lp(S, LL1, math.sin(S[TH]), a) if C[ACC_REG] != 0.0 else sin_lp
+    if C[ACC_REG] != 0.0:
+        # the accelerometer measures dv/dt + g sin(theta) at the sensors: its low-pass minus the same low-passed
+        # dv/dt is the gravity term there without the slope layer's lag behind a grade change (its bias is a
+        # constant the offset takes); the slope layer then supplies only the geometry, the slope gravity acts on
+        # minus the slope under the sensors. Held through accelerometer dropouts (it changes slowly).
+        f_lp = _lp(S, LG1, S[F_IN] if S[F_OK] != 0.0 else math.nan, a)
+        if S[F_OK] != 0.0:
+            S[G_SHIFT] = (f_lp - acc_f) / g - sin_loc_lp
+        sin_lp += S[G_SHIFT]
+        sin_loc_lp += S[G_SHIFT]
     if C[CHAIN_L] > 0.0:
         # the load hangs on chains: a pendulum forced by the train's acceleration (semi-implicit Euler; dt is at
         # most GAP_S here, so the sub-step count is bounded)

@@ -70,8 +70,9 @@ N_BUF = 61  # history entries kept (>= N_HIST): the spread gate's reach
 MAX_AMBIG = 62  # the geometry bank's ambiguity gate (AMBIG above it: no mass update)
 EARLY_CAP = 63  # the geometry bank: most the early evidence (SCORE_EARLY) may tell the members apart
 PROJECT_CLAMP = 64  # a clamped mass moves the correlated parameters with it (estimate projection)
-N_CHAIN = 65  # members of the chain-length bank (0: one pendulum, CHAIN_L)
-CHAIN_SET = 66  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+ACC_REG = 65  # the regressor's gravity term from the accelerometer (f - dv/dt) rather than the slope estimate
+N_CHAIN = 66  # members of the chain-length bank (0: one pendulum, CHAIN_L)
+CHAIN_SET = 67  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8
@@ -150,7 +151,11 @@ NIS = 69  # normalised innovation squared of the last accepted speed correction 
 SCORE = 70  # accumulated negative log-likelihood of the force balance (the geometry bank's evidence)
 AMBIG = 71  # written by the geometry bank: how much its members disagree on the slope gravity acts on (rad)
 SCORE_EARLY = 72  # as SCORE, while the slope window still holds the start-up guess (the bank caps its weight)
-CHAIN_ST = 73  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
+LG1 = 73  # low-pass of the accelerometer's specific force (3 slots; ACC_REG)
+LG2 = 74
+LG_OK = 75
+G_SHIFT = 76  # ACC_REG: the accelerometer's gravity term minus the slope layer's, per g (held through dropouts)
+CHAIN_ST = 77  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
 #   low-pass of its load acceleration (3 slots), that acceleration, its force-balance evidence (negative log-lik.)
 CHAIN_ST_W = 7
 N_S = CHAIN_ST + CHAIN_ST_W * MAX_CHAINS

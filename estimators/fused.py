@@ -46,7 +46,9 @@ FUSED_DEFAULTS = DFFRLSAEKFConfig(fused=True, offset_forgetting_ratio=0.05, trai
 """The ``fused`` settings: ``dffrls-aekf``'s with a 14 m window and the learned blend, and the offset forgotten 20x
 slower than the dynamic factor asks (so a grade change is explained by the blend, not soaked up by the offset). Chosen on
 plant runs 1000-1015 among offset ratios 0.01-1 and windows 12 / 14 / 18.1 m (12 m: median slope 0.54° but 90th
-percentile 0.91° vs 0.61 / 0.82° with 14 m)."""
+percentile 0.91° vs 0.61 / 0.82° with 14 m). The accelerometer's gravity term in the regression
+(``accel_regressor``) stays off here too: on plant tuning runs 1000-1199 it raised ``fused``'s median mass max error
+6.6 → 7.4 % (docs/estimation.md, session 20)."""
 
 
 class FusedObserver(DFFRLSAEKF):

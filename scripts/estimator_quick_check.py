@@ -22,6 +22,9 @@ p90 / p95 / max of the mass error and the median / p95 of the slope RMSE.
 others draw other noise, biases and faults on the same physics): one seed is one draw of the accelerometer's bias,
 and the scenario table of one seed says little about the next (docs/estimation.md, session 17).
 
+``--clean-sensors`` runs the point-mass scenarios with perfect sensors (no noise, bias, quantisation or vibration;
+faults kept): what is left is the estimator's model error (docs/estimation.md, session 20).
+
 ``--decimate K`` keeps every K-th sample of every run: what a logger at 200/K Hz records (the estimators' settings
 are per 5 ms sample; docs/estimation.md, "Logs at other sample rates").
 """
@@ -65,9 +68,17 @@ def decimate(tr: Trace, k: int) -> Trace:
     return tr if k == 1 else Trace({c: v[::k] for c, v in tr.columns.items()}, source=tr.source, meta=dict(tr.meta))
 
 
-def _score(job: tuple[str, RunSpec, list[list[Any]], int, float]) -> list[tuple[str, str, float, float]]:
-    group, spec, configs, k, settle_s = job
-    tr = decimate(make_run(spec), k)
+def clean_scenario_run(spec: RunSpec) -> Trace:
+    """The point-mass scenario of ``spec`` with perfect sensors (its faults, if any, kept)."""
+    from uuom_gym.sim.point_mass import PointMassSensors, point_mass_scenario, simulate_point_mass, with_options
+
+    perfect = PointMassSensors(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    return simulate_point_mass(with_options(point_mass_scenario(spec.scenario), sensors=perfect), seed=spec.seed)
+
+
+def _score(job: tuple[str, RunSpec, list[list[Any]], int, float, bool]) -> list[tuple[str, str, float, float]]:
+    group, spec, configs, k, settle_s, clean = job
+    tr = decimate(clean_scenario_run(spec) if clean and group.startswith("pm-sc:") else make_run(spec), k)
     t = tr["t_s"]
     slope = train_slope_deg(tr)
     rows = []
@@ -91,6 +102,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="keep every K-th sample (a logger at 200/K Hz; default 1: the runs as simulated)")
     ap.add_argument("--scenario-seeds", type=int, default=1, metavar="N",
                     help="run each point-mass scenario with sensor seeds 0..N-1 (default 1: the protocol's seed 0)")
+    ap.add_argument("--clean-sensors", action="store_true",
+                    help="point-mass scenarios with perfect sensors (no noise, bias, quantisation, vibration)")
     ap.add_argument("--settle", type=float, default=10.0, metavar="S",
                     help="score the errors after S seconds (default 10, issue 10's metric; a run lasts 60 s)")
     args = ap.parse_args(argv)
@@ -105,7 +118,8 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--configs must be a JSON list of [label, estimator, {options}]")
     for _, name, options in configs:
         get_class(name)(**options)  # an unknown estimator or option fails here, named, before any run
-    jobs = [(g, s, configs, args.decimate, args.settle) for g, s in _specs(args.runs, args.tuning, args.scenario_seeds)]
+    jobs = [(g, s, configs, args.decimate, args.settle, args.clean_sensors)
+            for g, s in _specs(args.runs, args.tuning, args.scenario_seeds)]
     with multiprocessing.Pool(max(1, args.workers)) as pool:
         rows = [r for rs in pool.map(_score, jobs, chunksize=1) for r in rs]
     specs = [s for _, s, *_ in jobs for _ in configs]

@@ -1,4 +1,5 @@
-"""scripts/estimator_quick_check.py: ``--decimate K`` (what a logger at 200/K Hz records), ``--settle``, ``--scenario-seeds``."""
+"""scripts/estimator_quick_check.py: ``--decimate K`` (what a logger at 200/K Hz records), ``--settle``, ``--scenario-seeds``,
+``--clean-sensors``."""
 
 from __future__ import annotations
 
@@ -65,3 +66,18 @@ def test_scenario_seeds_below_one_are_refused_before_any_run(capsys):
     with pytest.raises(SystemExit) as exc:
         qc.main(["--scenario-seeds", "0", "--runs", "0", "--tuning", "0"])
     assert exc.value.code == 2 and "--scenario-seeds must be >= 1" in capsys.readouterr().err
+
+
+def test_clean_sensors_leave_only_the_physics():
+    """``--clean-sensors``: the point-mass scenario's sensors read the simulated truth (no noise, bias, quantisation,
+    vibration), so every sensor seed gives the same trace, and the noisy run differs from it."""
+    from dataclasses import replace
+
+    from uuom_gym.sim.protocol_runs import make_run, protocol_runs
+
+    spec = next(s for s in protocol_runs(0, 0, paper_seeds=1, fault_seeds=0) if s.scenario == "pm-section1")
+    a, b = qc.clean_scenario_run(spec), qc.clean_scenario_run(replace(spec, seed=7))
+    for c in ("torque_nm", "speed_mps", "accel_mps2"):
+        np.testing.assert_array_equal(a[c], b[c])
+    np.testing.assert_allclose(a["speed_mps"], a["true_speed_mps"], atol=0.0)
+    assert not np.array_equal(a["accel_mps2"], make_run(spec)["accel_mps2"])

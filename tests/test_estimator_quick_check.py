@@ -49,8 +49,8 @@ def test_settle_outside_the_runs_is_refused_before_any_run(capsys, settle):
 def test_settle_moves_the_scoring_window():
     """The same run scored after 10 s and after 30 s: the later window cannot hold a larger maximum."""
     job = ("point", qc.RunSpec("point", "point-000", 0, 0, "point"), [["mmae", "mmae", {"n_models": 6}]], 4)
-    (_, _, early, _), = qc._score((*job, 10.0))
-    (_, _, late, _), = qc._score((*job, 30.0))
+    (_, _, early, _), = qc._score((*job, 10.0, False))
+    (_, _, late, _), = qc._score((*job, 30.0, False))
     assert np.isfinite(early) and 0.0 <= late <= early
 
 

@@ -363,9 +363,8 @@ def step(S, H, C, torque, speed, accel, dt):
         # dv/dt is the gravity term there without the slope layer's lag behind a grade change (its bias is a
         # constant the offset takes); the slope layer then supplies only the geometry, the slope gravity acts on
         # minus the slope under the sensors. Held through accelerometer dropouts (it changes slowly).
-        f_lp = _lp(S, LG1, S[F_IN] if S[F_OK] != 0.0 else math.nan, a)
         if S[F_OK] != 0.0:
-            S[G_SHIFT] = (f_lp - acc_f) / g - sin_loc_lp
+            S[G_SHIFT] = (_lp(S, LG1, S[F_IN], a) - acc_f) / g - sin_loc_lp
         sin_lp += S[G_SHIFT]
         sin_loc_lp += S[G_SHIFT]
     if C[CHAIN_L] > 0.0:

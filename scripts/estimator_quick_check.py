@@ -72,8 +72,8 @@ def clean_scenario_run(spec: RunSpec) -> Trace:
     """The point-mass scenario of ``spec`` with perfect sensors (its faults, if any, kept)."""
     from uuom_gym.sim.point_mass import PointMassSensors, point_mass_scenario, simulate_point_mass, with_options
 
-    perfect = PointMassSensors(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    return simulate_point_mass(with_options(point_mass_scenario(spec.scenario), sensors=perfect), seed=spec.seed)
+    sc = with_options(point_mass_scenario(spec.scenario), sensors=PointMassSensors.perfect())
+    return simulate_point_mass(sc, seed=spec.seed)
 
 
 def _score(job: tuple[str, RunSpec, list[list[Any]], int, float, bool]) -> list[tuple[str, str, float, float]]:

@@ -274,8 +274,7 @@ def test_accel_regressor_removes_the_slope_lag_on_clean_data(scenario: str) -> N
     assert estimators.make("dffrls-aekf").members[0].C[kern.ACC_REG] == 0.0
     assert estimators.make("dffrls-aekf", accel_regressor=True, use_accel=False).members[0].C[kern.ACC_REG] == 0.0
 
-    clean = PointMassSensors(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    tr = simulate_point_mass(with_options(point_mass_scenario(scenario), sensors=clean), seed=0)
+    tr = simulate_point_mass(with_options(point_mass_scenario(scenario), sensors=PointMassSensors.perfect()), seed=0)
     errs = {}
     for on in (True, False):
         s = estimators.make("dffrls-aekf", accel_regressor=on).run(tr)

@@ -30,7 +30,7 @@ on purpose: the whole second world -- model, driver, sensors, faults, scenarios 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -113,6 +113,12 @@ class PointMassSensors:
     accel_resolution_mps2: float = 0.005
     vibration_mps2_per_mps: float = 0.05
     vibration_hz: float = 7.0
+
+    @classmethod
+    def perfect(cls) -> PointMassSensors:
+        """Sensors that read the simulated truth: no noise, bias, quantisation or vibration (what is left of an
+        estimator's error on them is its model's)."""
+        return cls(**{f.name: 0.0 for f in fields(cls) if f.name != "vibration_hz"})
 
 
 @dataclass(frozen=True)

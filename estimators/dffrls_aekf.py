@@ -13,7 +13,10 @@ model is the accelerometer's specific force ``f = dv/dt + g sin θ`` (spec §4):
 
 so the slope needs neither the mass nor μ nor the torque and does not inherit the mass error (``use_accel``;
 without it, and whenever the accelerometer sample is missing, the paper's torque model with the mass layer's
-M̂ and μ̂ takes over). The slope's random walk is per metre travelled (the grade is a function of position).
+M̂ and μ̂ takes over). The slope's random walk is per metre travelled (the grade is a function of position). By default a third state,
+the grade's curvature κ (``θ_k = θ_{k-1} + κ Δs``, κ a random walk per metre, ``grade_curvature_std``), lets the
+slope follow a vertical curve without the lag of a random walk on θ alone (the paper's two states:
+``grade_curvature_std=0``).
 
 **Slope under the train.** Gravity acts on the whole 18 m train; the sensors measure the slope at one point (on
 the project's plant: the drive section at the front). The reported slope is the mean of θ_s over the last
@@ -144,6 +147,22 @@ class DFFRLSAEKFConfig:
         the accelerometer's noise enters the regressor instead: protocol seed 0 of the point-mass scenarios,
         resistance mismatch 3.7 → 10.5 %, sensor faults 7.3 → 18.9 %; plant tuning runs 1000-1199 median / p95 8.6
         / 26.9 → 8.6 / 28.7 %; random point-mass runs p95 20.9 → 19.9 % (docs/estimation.md, session 20).
+    grade_curvature_std : float
+        (A) Random walk of the grade's curvature κ = dθ/ds, per √m travelled (rad/m/√m; 0: no curvature state, the
+        paper's two-state slope EKF). With it the slope layer's state is ``[v, θ_s, κ]`` and θ_s advances by κ ds:
+        a roadway is straight grades joined by vertical curves, and a random walk on θ alone lags every grade change
+        (on clean point-mass traces ~0.1-0.4° behind, which the mass regression reads as mass). Default 0.01 with
+        ``prior_curvature_std_per_m`` 0.01 (the variance is capped there, so larger values act alike; session 21).
+        Measured, `python scripts/estimator_quick_check.py` and a paired script on cached runs (docs/estimation.md,
+        session 21): plant tuning runs 1000-1099 mass max error median / p95 8.86 / 27.99 → 8.87 / 28.29 %, slope
+        0.350 / 1.157 → 0.359 / 1.224° (neutral / slightly worse: **not chosen on the plant**); point-mass random
+        runs 0-199 4.55 / 20.89 → 4.14 / 19.98 %, slope 0.178 / 0.746 → 0.153 / 0.633°; the eight point-mass
+        scenarios over sensor seeds 0-9 median / max 4.78 / 13.9 → 4.05 / 12.3 %. The env's plant keeps it off
+        (``uuom_gym.envs.observers.PLANT_GRADE_OPTIONS``), as ``fused`` does (it lost on both worlds' slope).
+    prior_curvature_std_per_m : float
+        Prior (and cap) of the curvature's standard deviation (rad/m; 0.01: 6° of grade change over 10 m).
+    max_curvature_per_m : float
+        Bound of the curvature estimate (rad/m).
     chain_prior_std : float
         Prior of the bank's chain length: log-normal around ``chain_length_m`` with this standard deviation of
         ``ln L`` (each member starts with ``0.5 (ln f / std)²`` nats against it; ``inf``: a flat prior). 0.4 chosen
@@ -198,16 +217,20 @@ class DFFRLSAEKFConfig:
     accel_regressor: bool = False
     chain_length_factors: tuple[float, ...] = (0.7, 0.85, 1.0, 1.2, 1.4)
     chain_prior_std: float = 0.4
+    grade_curvature_std: float = 0.01
+    prior_curvature_std_per_m: float = 0.01
+    max_curvature_per_m: float = 0.05
 
     def settings(self, v: VehicleParams) -> np.ndarray:
         """The kernel's settings array for vehicle ``v`` (validates every value)."""
         positive = ("cutoff_hz", "speed_std_mps", "accel_std_mps2", "model_accel_std_mps2", "prior_slope_std_rad",
                     "gate_sigma", "history_step_m", "sigma", "residual_std_mps2", "mu_prior_std", "mu_max",
                     "slope_ready_std_rad", "gap_s", "dt_nominal_s", "max_slope_spread_rad",
-                    "max_geometry_ambiguity_rad")
+                    "max_geometry_ambiguity_rad", "prior_curvature_std_per_m", "max_curvature_per_m")
         non_negative = ("mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio", "min_speed_mps",
                         "min_accel_mps2", "offset_forgetting_ratio", "accel_bias_std_mps2",
-                        "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after", "max_early_evidence")
+                        "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after", "max_early_evidence",
+                        "grade_curvature_std")
         for name in positive + non_negative:
             x = getattr(self, name)
             if isinstance(x, bool) or not isinstance(x, (int, float)) or math.isnan(x) or (
@@ -296,6 +319,9 @@ class DFFRLSAEKFConfig:
         C[kern.ACC_VAR] = self.accel_std_mps2**2
         C[kern.MODEL_ACC_VAR] = self.model_accel_std_mps2**2
         C[kern.GRADE_VAR_M] = self.grade_std_rad_per_sqrt_m**2
+        C[kern.CURV_VAR_M] = self.grade_curvature_std**2
+        C[kern.P0_KAP] = self.prior_curvature_std_per_m**2
+        C[kern.KAP_MAX] = self.max_curvature_per_m
         C[kern.P0_TH] = self.prior_slope_std_rad**2
         C[kern.GATE2] = self.gate_sigma**2
         C[kern.MAX_SLOPE] = math.radians(v.max_grade_deg + 5.0)
@@ -459,8 +485,11 @@ class DFFRLSAEKF(Estimator):
 
     @property
     def slope_P(self) -> np.ndarray:
-        """Covariance of the slope layer's ``[v, θ_s]``."""
+        """Covariance of the slope layer's ``[v, θ_s]``, or ``[v, θ_s, κ]`` (3x3) with the curvature state."""
         S = self.S
+        if self.C[kern.CURV_VAR_M] > 0.0:
+            return np.array([[S[kern.P11], S[kern.P12], S[kern.P13]], [S[kern.P12], S[kern.P22], S[kern.P23]],
+                             [S[kern.P13], S[kern.P23], S[kern.P33]]])
         return np.array([[S[kern.P11], S[kern.P12]], [S[kern.P12], S[kern.P22]]])
 
     @property

@@ -39,12 +39,15 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
     EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
+    CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
 
 _kf_update = njit(cache=True, inline="always")(filters.kalman_update_2x2_h1)
 _repair = njit(cache=True, inline="always")(filters.repair_pd_2x2)
+_kf_update3 = njit(cache=True, inline="always")(filters.kalman_update_3x3_h1)
+_repair3 = njit(cache=True, inline="always")(filters.repair_pd_3x3)
 
 
 @njit(cache=True, inline="always")
@@ -86,6 +89,7 @@ def reset(S, H, C):
     S[V] = math.nan
     S[P11] = C[R0]
     S[P22] = C[P0_TH]
+    S[P33] = C[P0_KAP]
     S[R] = C[R0]
     S[BK] = 1.0
     S[GT_LAST] = math.nan
@@ -204,6 +208,11 @@ def step(S, H, C, torque, speed, accel, dt):
     if dt > C[GAP_S]:  # a gap (inf, 1e300 included): restart, then treat the sample as the first after it
         _restart_signals(S, H)
         S[P22] = max(S[P22], C[P0_TH])
+        # the curvature of a stretch the train may have moved along unseen: back to its prior, uncorrelated
+        S[KAP] = 0.0
+        S[P13] = 0.0
+        S[P23] = 0.0
+        S[P33] = max(S[P33], C[P0_KAP])
         S[N_GAPS] += 1.0
         dt = C[DT_NOM]
     g = G_MPS2
@@ -241,11 +250,29 @@ def step(S, H, C, torque, speed, accel, dt):
         if moving:
             S[V] = v + dt * acc
         p11, p12, p22 = S[P11], S[P12], S[P22]
+        curv = C[CURV_VAR_M] > 0.0
+        p13, p23, p33 = S[P13], S[P23], S[P33]
         # the grade is a function of position: it drifts with the distance travelled, not with time
         q22 = C[GRADE_VAR_M] * abs(v) * dt
-        p11 = p11 + 2.0 * f12 * p12 + f12 * f12 * p22 + q11
-        p12 = p12 + f12 * p22
-        p22 = min(p22 + q22, C[P0_TH])
+        if curv:
+            # third state: the grade's curvature (roadways are straight grades joined by vertical curves), so a
+            # grade that changes along the track is followed without the lag of a random walk
+            ds = v * dt if moving else 0.0
+            th_adv = S[TH] + S[KAP] * ds
+            ms = C[MAX_SLOPE]
+            S[TH] = ms if th_adv > ms else (-ms if th_adv < -ms else th_adv)
+            # P <- F P F^T + Q with F = [[1, f12, 0], [0, 1, ds], [0, 0, 1]]
+            n11 = p11 + 2.0 * f12 * p12 + f12 * f12 * p22 + q11
+            n12 = p12 + f12 * p22 + ds * (p13 + f12 * p23)
+            n13 = p13 + f12 * p23
+            n22 = p22 + 2.0 * ds * p23 + ds * ds * p33 + q22
+            n23 = p23 + ds * p33
+            n33 = p33 + C[CURV_VAR_M] * abs(ds)
+            p11, p12, p13, p22, p23, p33 = n11, n12, n13, min(n22, C[P0_TH]), n23, min(n33, C[P0_KAP])
+        else:
+            p11 = p11 + 2.0 * f12 * p12 + f12 * f12 * p22 + q11
+            p12 = p12 + f12 * p22
+            p22 = min(p22 + q22, C[P0_TH])
         if z == z:
             eps = z - S[V]
             s_inn = p11 + S[R]
@@ -270,12 +297,23 @@ def step(S, H, C, torque, speed, accel, dt):
                     if r_new <= C[R_MIN]:
                         r_new = (1.0 - d) * S[R] + d * eps * eps
                     S[R] = min(max(r_new, C[R_MIN]), C[R_MAX])
-                dv, dth, p11, p12, p22 = _kf_update(p11, p12, p22, eps, S[R])
+                if curv:
+                    dv, dth, dk, p11, p12, p13, p22, p23, p33 = _kf_update3(p11, p12, p13, p22, p23, p33, eps,
+                                                                            S[R])
+                    k_new = S[KAP] + dk
+                    km = C[KAP_MAX]
+                    S[KAP] = km if k_new > km else (-km if k_new < -km else k_new)
+                else:
+                    dv, dth, p11, p12, p22 = _kf_update(p11, p12, p22, eps, S[R])
                 S[V] += dv
                 th_new = S[TH] + dth
                 ms = C[MAX_SLOPE]
                 S[TH] = ms if th_new > ms else (-ms if th_new < -ms else th_new)
-        p11, p12, p22 = _repair(p11, p12, p22, 1e-14, 1e-14)
+        if curv:
+            p11, p12, p13, p22, p23, p33 = _repair3(p11, p12, p13, p22, p23, p33, 1e-14, C[P0_TH])
+            S[P13], S[P23], S[P33] = p13, p23, p33
+        else:
+            p11, p12, p22 = _repair(p11, p12, p22, 1e-14, 1e-14)
         S[P11], S[P12], S[P22] = p11, p12, p22
     if f == f:
         S[F_IN] = f

@@ -72,7 +72,10 @@ EARLY_CAP = 63  # the geometry bank: most the early evidence (SCORE_EARLY) may t
 PROJECT_CLAMP = 64  # a clamped mass moves the correlated parameters with it (estimate projection)
 ACC_REG = 65  # the regressor's gravity term from the accelerometer (f - dv/dt) rather than the slope estimate
 N_CHAIN = 66  # members of the chain-length bank (0: one pendulum, CHAIN_L)
-CHAIN_SET = 67  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+CURV_VAR_M = 67  # variance per metre of the random walk of the grade's curvature (0: no curvature state)
+P0_KAP = 68  # prior variance of the curvature (rad/m)^2
+KAP_MAX = 69  # bound of the curvature (rad/m)
+CHAIN_SET = 70  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8
@@ -155,7 +158,11 @@ LG1 = 73  # low-pass of the accelerometer's specific force (3 slots; ACC_REG)
 LG2 = 74
 LG_OK = 75
 G_SHIFT = 76  # ACC_REG: the accelerometer's gravity term minus the slope layer's, per g (held through dropouts)
-CHAIN_ST = 77  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
+KAP = 77  # the grade's curvature d(theta)/ds (rad/m): third state of the slope layer when CURV_VAR_M > 0
+P13 = 78  # its covariances with v, theta and itself
+P23 = 79
+P33 = 80
+CHAIN_ST = 81  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
 #   low-pass of its load acceleration (3 slots), that acceleration, its force-balance evidence (negative log-lik.)
 CHAIN_ST_W = 7
 N_S = CHAIN_ST + CHAIN_ST_W * MAX_CHAINS

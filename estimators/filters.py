@@ -30,6 +30,8 @@ __all__ = [
     "check_int_option",
     "check_positive",
     "kalman_update_2x2_h1",
+    "kalman_update_3x3_h1",
+    "repair_pd_3x3",
     "effective_dt",
     "hold_last_valid",
 ]
@@ -302,6 +304,63 @@ def kalman_update_2x2_h1(p11: float, p12: float, p22: float, innov: float,
     n12 = a * (p12 - k2 * p11) + k1 * k2 * r
     n22 = k2 * k2 * p11 - 2.0 * k2 * p12 + p22 + k2 * k2 * r
     return k1 * innov, k2 * innov, n11, n12, n22
+
+
+def kalman_update_3x3_h1(p11: float, p12: float, p13: float, p22: float, p23: float, p33: float, innov: float,
+                         r: float) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """Kalman correction of a 3-state filter measuring its first state (``H = [1, 0, 0]``), Joseph form.
+
+    Returns ``(dx1, dx2, dx3, p11, p12, p13, p22, p23, p33)``: the correction ``K innov`` and the six distinct
+    entries of ``(I - K H) P (I - K H)^T + K r K^T`` (symmetric by construction, PSD for any gain). Pair it with
+    :func:`repair_pd_3x3`. The 3-state sibling of :func:`kalman_update_2x2_h1`.
+    """
+    s = p11 + r
+    k1 = p11 / s
+    k2 = p12 / s
+    k3 = p13 / s
+    # (I - K H) P (I - K H)^T + K r K^T, entry by entry: P_ij - k_i P_1j - k_j P_1i + k_i k_j (p11 + r)
+    n11 = p11 - 2.0 * k1 * p11 + k1 * k1 * s
+    n12 = p12 - k1 * p12 - k2 * p11 + k1 * k2 * s
+    n13 = p13 - k1 * p13 - k3 * p11 + k1 * k3 * s
+    n22 = p22 - 2.0 * k2 * p12 + k2 * k2 * s
+    n23 = p23 - k2 * p13 - k3 * p12 + k2 * k3 * s
+    n33 = p33 - 2.0 * k3 * p13 + k3 * k3 * s
+    return k1 * innov, k2 * innov, k3 * innov, n11, n12, n13, n22, n23, n33
+
+
+def repair_pd_3x3(p11: float, p12: float, p13: float, p22: float, p23: float, p33: float, floor: float = 1e-18,
+                  ceil22: float = math.inf) -> tuple[float, float, float, float, float, float]:
+    """Make a symmetric 3x3 matrix positive definite: diagonal floored at ``floor`` (``p22`` also capped at
+    ``ceil22``; a non-finite diagonal entry becomes the floor, or ``p22`` the cap), non-finite off-diagonals 0, and the off-diagonals shrunk by halves until the matrix has a
+    Cholesky factor (zero after 30 halvings: the diagonal alone is PD). The 3-state sibling of
+    :func:`repair_pd_2x2`.
+    """
+    if not (floor <= p11 < math.inf):
+        p11 = floor
+    if not (p22 >= floor):
+        p22 = floor
+    elif p22 > ceil22:
+        p22 = ceil22 if ceil22 < math.inf else floor
+    if not (floor <= p33 < math.inf):
+        p33 = floor
+    if not (abs(p12) < math.inf):
+        p12 = 0.0
+    if not (abs(p13) < math.inf):
+        p13 = 0.0
+    if not (abs(p23) < math.inf):
+        p23 = 0.0
+    for _ in range(30):
+        # pivots of the Cholesky factorisation (a margin so that rounding cannot make them vanish)
+        d2 = p22 - p12 * p12 / p11
+        if d2 > 1e-9 * p22:
+            l32 = (p23 - p13 * p12 / p11) / d2
+            d3 = p33 - p13 * p13 / p11 - l32 * l32 * d2
+            if d3 > 1e-9 * p33:
+                return p11, p12, p13, p22, p23, p33
+        p12 *= 0.5
+        p13 *= 0.5
+        p23 *= 0.5
+    return p11, 0.0, 0.0, p22, 0.0, p33
 
 
 def joseph_update(P: np.ndarray, K: np.ndarray, H: np.ndarray, R: np.ndarray) -> np.ndarray:

@@ -43,6 +43,7 @@ VARIANTS: list[tuple[str, str, dict]] = [
      {"estimate_mu": False, "offset_forgetting_ratio": 0.0}),
     ("- mass only from accelerations", "dffrls-aekf", {"min_accel_mps2": 0.0}),
     ("- clamped mass moves the offset with it (projection)", "dffrls-aekf", {"clamp_projection": False}),
+    ("- grade curvature state (the paper's two-state slope EKF)", "dffrls-aekf", {"grade_curvature_std": 0.0}),
     ("- spike / innovation gates", "dffrls-aekf", {"gates": False}),
     ("- Sage-Husa R adaptation", "dffrls-aekf", {"adapt_r": False}),
     ("dffrls-aekf-paper (as printed)", "dffrls-aekf-paper", {}),

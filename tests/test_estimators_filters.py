@@ -20,8 +20,10 @@ from estimators.filters import (
     dynamic_forgetting,
     hold_last_valid,
     joseph_update,
+    kalman_update_3x3_h1,
     repair_pd,
     repair_pd_2x2,
+    repair_pd_3x3,
     sage_husa_weight,
 )
 
@@ -88,6 +90,38 @@ def test_joseph_and_repair() -> None:
     assert p11 * p22 - p12 * p12 > 0
     p11, p12, p22 = repair_pd_2x2(math.nan, 0.0, -1.0, 1e-4, 1e-5)
     assert (p11, p22) == (1e-4, 1e-5)
+
+
+def _sym3(p11, p12, p13, p22, p23, p33) -> np.ndarray:
+    return np.array([[p11, p12, p13], [p12, p22, p23], [p13, p23, p33]])
+
+
+def test_kalman_update_3x3_is_the_joseph_form() -> None:
+    """The slope layer's 3-state correction (speed measured) equals the general Joseph update, entry by entry."""
+    rng = np.random.default_rng(3)
+    H = np.array([[1.0, 0.0, 0.0]])
+    for _ in range(200):
+        A = rng.normal(size=(3, 3))
+        P = A @ A.T + 1e-6 * np.eye(3)
+        r, innov = float(rng.uniform(1e-4, 1.0)), float(rng.normal())
+        out = kalman_update_3x3_h1(P[0, 0], P[0, 1], P[0, 2], P[1, 1], P[1, 2], P[2, 2], innov, r)
+        K = P[:, :1] / (P[0, 0] + r)
+        np.testing.assert_allclose(out[:3], K[:, 0] * innov, rtol=1e-12, atol=1e-15)
+        expected = joseph_update(P, K, H, np.array([[r]]))
+        np.testing.assert_allclose(_sym3(*out[3:]), expected, rtol=1e-9, atol=1e-12)
+
+
+def test_repair_pd_3x3_makes_any_input_positive_definite() -> None:
+    rng = np.random.default_rng(4)
+    for _ in range(500):
+        vals = rng.normal(size=6) * rng.choice([1e-6, 1.0, 1e6], size=6)
+        vals[rng.random(6) < 0.1] = rng.choice([np.nan, np.inf, -np.inf])
+        p = repair_pd_3x3(*vals, 1e-10, 10.0)
+        M = _sym3(*p)
+        assert np.all(np.isfinite(M)) and M[1, 1] <= 10.0
+        assert np.linalg.cholesky(M) is not None  # raises LinAlgError if not positive definite
+    good = (2.0, 0.3, 0.1, 1.0, 0.2, 0.5)
+    assert repair_pd_3x3(*good) == good  # a PD matrix is returned unchanged
 
 
 def test_check_dt() -> None:

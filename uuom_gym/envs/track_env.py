@@ -189,6 +189,9 @@ class UUOMTrackEnv(gym.Env):
       chain length (a bank over 0.7-1.4x the vehicle file's, ``chain_length_factors``); the env's plant hangs the
       load on the file's chains and tells them one pendulum of that length (``observers.PLANT_SWING_OPTIONS``), so
       episodes are identical.
+    * v0 (rev. 10, no id change, behaviour unchanged): the registered ``dffrls-aekf``'s slope layer carries the
+      grade's curvature (``grade_curvature_std``); chosen with the point-mass world in view and neutral to slightly
+      worse on this plant, it stays off here (``observers.PLANT_GRADE_OPTIONS``), so episodes are identical.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -13,10 +13,10 @@ model is the accelerometer's specific force ``f = dv/dt + g sin θ`` (spec §4):
 
 so the slope needs neither the mass nor μ nor the torque and does not inherit the mass error (``use_accel``;
 without it, and whenever the accelerometer sample is missing, the paper's torque model with the mass layer's
-M̂ and μ̂ takes over). The slope's random walk is per metre travelled (the grade is a function of position). By default a third state,
-the grade's curvature κ (``θ_k = θ_{k-1} + κ Δs``, κ a random walk per metre, ``grade_curvature_std``), lets the
-slope follow a vertical curve without the lag of a random walk on θ alone (the paper's two states:
-``grade_curvature_std=0``).
+M̂ and μ̂ takes over). The slope's random walk is per metre travelled (the grade is a function of position). By
+default a third state, the grade's curvature κ (``θ_k = θ_{k-1} + κ Δs``, κ a random walk per metre,
+``grade_curvature_std``), lets the slope follow a vertical curve without the lag of a random walk on θ alone (the
+paper's two states: ``grade_curvature_std=0``).
 
 **Slope under the train.** Gravity acts on the whole 18 m train; the sensors measure the slope at one point (on
 the project's plant: the drive section at the front). The reported slope is the mean of θ_s over the last
@@ -151,13 +151,14 @@ class DFFRLSAEKFConfig:
         (A) Random walk of the grade's curvature κ = dθ/ds, per √m travelled (rad/m/√m; 0: no curvature state, the
         paper's two-state slope EKF). With it the slope layer's state is ``[v, θ_s, κ]`` and θ_s advances by κ ds:
         a roadway is straight grades joined by vertical curves, and a random walk on θ alone lags every grade change
-        (on clean point-mass traces ~0.1-0.4° behind, which the mass regression reads as mass). Default 0.01 with
-        ``prior_curvature_std_per_m`` 0.01 (the variance is capped there, so larger values act alike; session 21).
-        Measured, `python scripts/estimator_quick_check.py` and a paired script on cached runs (docs/estimation.md,
-        session 21): plant tuning runs 1000-1099 mass max error median / p95 8.86 / 27.99 → 8.87 / 28.29 %, slope
-        0.350 / 1.157 → 0.359 / 1.224° (neutral / slightly worse: **not chosen on the plant**); point-mass random
-        runs 0-199 4.55 / 20.89 → 4.14 / 19.98 %, slope 0.178 / 0.746 → 0.153 / 0.633°; the eight point-mass
-        scenarios over sensor seeds 0-9 median / max 4.78 / 13.9 → 4.05 / 12.3 %. The env's plant keeps it off
+        (clean point-mass scenarios: slope RMSE median 0.08° with two states, 0.04° with κ; the mass regression
+        reads the lag as mass). Default 0.01 with ``prior_curvature_std_per_m`` 0.01 (the variance is capped there,
+        so larger values act alike; session 21). Measured (docs/estimation.md, session 21, with the commands):
+        plant tuning runs 1000-1099 mass max error median / p95 8.86 / 27.99 → 8.87 / 28.29 %, slope 0.350 / 1.157
+        → 0.359 / 1.224° (neutral / slightly worse: **not chosen on the plant**; ``estimator_quick_check.py``); the
+        protocol's random point-mass runs 4.48 / 20.89 → 4.10 / 19.95 %, slope 0.177 / 0.745 → 0.153 / 0.632°
+        (``estimator_protocol.py``); the eight point-mass scenarios over sensor seeds 0-9 median / max 4.78 / 13.9 →
+        4.05 / 12.3 % (``estimator_quick_check.py --scenario-seeds 10``). The env's plant keeps it off
         (``uuom_gym.envs.observers.PLANT_GRADE_OPTIONS``), as ``fused`` does (it lost on both worlds' slope).
     prior_curvature_std_per_m : float
         Prior (and cap) of the curvature's standard deviation (rad/m; 0.01: 6° of grade change over 10 m).

@@ -51,6 +51,12 @@ _repair3 = njit(cache=True, inline="always")(filters.repair_pd_3x3)
 
 
 @njit(cache=True, inline="always")
+def _clip(x, lim):
+    """``x`` bounded to ``[-lim, lim]``."""
+    return lim if x > lim else (-lim if x < -lim else x)
+
+
+@njit(cache=True, inline="always")
 def _lp(S, i, x, a):
     """Two cascaded first-order low-passes at S[i], S[i+1]; S[i+2] = ready. NaN holds the last output."""
     if x != x:
@@ -258,9 +264,7 @@ def step(S, H, C, torque, speed, accel, dt):
             # third state: the grade's curvature (roadways are straight grades joined by vertical curves), so a
             # grade that changes along the track is followed without the lag of a random walk
             ds = v * dt if moving else 0.0
-            th_adv = S[TH] + S[KAP] * ds
-            ms = C[MAX_SLOPE]
-            S[TH] = ms if th_adv > ms else (-ms if th_adv < -ms else th_adv)
+            S[TH] = _clip(S[TH] + S[KAP] * ds, C[MAX_SLOPE])
             # P <- F P F^T + Q with F = [[1, f12, 0], [0, 1, ds], [0, 0, 1]]
             n11 = p11 + 2.0 * f12 * p12 + f12 * f12 * p22 + q11
             n12 = p12 + f12 * p22 + ds * (p13 + f12 * p23)
@@ -300,15 +304,11 @@ def step(S, H, C, torque, speed, accel, dt):
                 if curv:
                     dv, dth, dk, p11, p12, p13, p22, p23, p33 = _kf_update3(p11, p12, p13, p22, p23, p33, eps,
                                                                             S[R])
-                    k_new = S[KAP] + dk
-                    km = C[KAP_MAX]
-                    S[KAP] = km if k_new > km else (-km if k_new < -km else k_new)
+                    S[KAP] = _clip(S[KAP] + dk, C[KAP_MAX])
                 else:
                     dv, dth, p11, p12, p22 = _kf_update(p11, p12, p22, eps, S[R])
                 S[V] += dv
-                th_new = S[TH] + dth
-                ms = C[MAX_SLOPE]
-                S[TH] = ms if th_new > ms else (-ms if th_new < -ms else th_new)
+                S[TH] = _clip(S[TH] + dth, C[MAX_SLOPE])
         if curv:
             p11, p12, p13, p22, p23, p33 = _repair3(p11, p12, p13, p22, p23, p33, 1e-14, C[P0_TH])
             S[P13], S[P23], S[P33] = p13, p23, p33

@@ -331,9 +331,9 @@ def kalman_update_3x3_h1(p11: float, p12: float, p13: float, p22: float, p23: fl
 def repair_pd_3x3(p11: float, p12: float, p13: float, p22: float, p23: float, p33: float, floor: float = 1e-18,
                   ceil22: float = math.inf) -> tuple[float, float, float, float, float, float]:
     """Make a symmetric 3x3 matrix positive definite: diagonal floored at ``floor`` (``p22`` also capped at
-    ``ceil22``; a non-finite diagonal entry becomes the floor, or ``p22`` the cap), non-finite off-diagonals 0, and the off-diagonals shrunk by halves until the matrix has a
-    Cholesky factor (zero after 30 halvings: the diagonal alone is PD). The 3-state sibling of
-    :func:`repair_pd_2x2`.
+    ``ceil22``; a non-finite diagonal entry becomes the floor, or ``p22`` the cap), non-finite off-diagonals 0, and
+    the off-diagonals shrunk by halves until the matrix has a Cholesky factor (zero after 30 halvings: the diagonal
+    alone is PD). The 3-state sibling of :func:`repair_pd_2x2`.
     """
     if not (floor <= p11 < math.inf):
         p11 = floor

@@ -48,9 +48,9 @@ slower than the dynamic factor asks (so a grade change is explained by the blend
 plant runs 1000-1015 among offset ratios 0.01-1 and windows 12 / 14 / 18.1 m (12 m: median slope 0.54° but 90th
 percentile 0.91° vs 0.61 / 0.82° with 14 m). No curvature state (``grade_curvature_std=0``; ``dffrls-aekf`` has
 one): with it, plant tuning runs 1000-1099 slope median / p95 0.544 / 1.290 → 0.589 / 1.390°, the point-mass
-scenarios' max mass error over sensor seeds 0-9 12.6 → 14.0 % (session 21). The accelerometer's gravity term in the regression
-(``accel_regressor``) stays off here too: on plant tuning runs 1000-1199 it raised ``fused``'s median mass max error
-6.6 → 7.4 % (docs/estimation.md, session 20)."""
+scenarios' max mass error over sensor seeds 0-9 12.6 → 14.0 % (session 21). The accelerometer's gravity term in the
+regression (``accel_regressor``) stays off here too: on plant tuning runs 1000-1199 it raised ``fused``'s median mass
+max error 6.6 → 7.4 % (docs/estimation.md, session 20)."""
 
 
 class FusedObserver(DFFRLSAEKF):

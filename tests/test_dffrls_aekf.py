@@ -306,7 +306,8 @@ def test_accel_regressor_and_curvature_remove_the_slope_lag_on_clean_data(scenar
 
 def test_curvature_state_follows_a_vertical_curve_and_keeps_its_covariance_pd(faulty: Trace) -> None:
     """The third state of the slope layer: on a noise-free ramp of the grade (1 deg per 10 m, a vertical curve) the
-    two-state layer trails the grade (0.02 deg), the curvature state does not (< 1e-5 deg); on faulty data its 3x3 covariance stays SPD."""
+    two-state layer trails the grade (0.02 deg), the curvature state does not (< 1e-5 deg); on faulty data its 3x3
+    covariance stays SPD."""
     from estimators.dffrls_aekf import DFFRLSAEKF
     from uuom_gym.sim.point_mass import (GradeProfile, PointMassScenario, PointMassSensors, SpeedPlan,
                                          simulate_point_mass)

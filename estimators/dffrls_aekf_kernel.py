@@ -39,7 +39,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
     EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
-    CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33,
+    CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
@@ -512,6 +512,11 @@ def step(S, H, C, torque, speed, accel, dt):
         pcd -= k2 * ph1
         pd -= k2 * ph2
     else:
+        if abs(a_load_f) < C[WEAK_ACC]:
+            # little acceleration: the sample is mostly the grade's level and the offset's prior, and it is correlated
+            # with its neighbours over ~CORR_N samples: counted as that much noisier
+            s_m += C[R_M] * (C[WEAK_R] - 1.0)
+            k2 = ph2 / s_m
         k1 = ph1 / s_m
         c += k1 * e
         dd += k2 * e

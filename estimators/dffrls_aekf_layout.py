@@ -75,7 +75,9 @@ N_CHAIN = 66  # members of the chain-length bank (0: one pendulum, CHAIN_L)
 CURV_VAR_M = 67  # variance per metre of the random walk of the grade's curvature (0: no curvature state)
 P0_KAP = 68  # prior variance of the curvature (rad/m)^2
 KAP_MAX = 69  # bound of the curvature (rad/m)
-CHAIN_SET = 70  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+WEAK_ACC = 70  # below this load acceleration (and above MIN_ACC) a mass update counts the sample WEAK_R times noisier
+WEAK_R = 71
+CHAIN_SET = 72  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8

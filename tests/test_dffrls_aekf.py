@@ -276,6 +276,10 @@ def test_env_observer_keeps_the_two_state_slope_layer() -> None:
     assert all(m.C[kern.CURV_VAR_M] == 0.0 for m in getattr(in_env, "members", [in_env]))
     asked = make_observer("dffrls-aekf", v, {"grade_curvature_std": 0.02}).estimator
     assert all(m.C[kern.CURV_VAR_M] == pytest.approx(0.02**2) for m in getattr(asked, "members", [asked]))
+    # the mass gate the RL tables were computed with (session 22 lowered the offline default to 0.03 m/s²)
+    assert all(m.C[kern.MIN_ACC] == 0.05 for m in getattr(in_env, "members", [in_env]))
+    asked = make_observer("dffrls-aekf", v, {"min_accel_mps2": 0.03}).estimator
+    assert all(m.C[kern.MIN_ACC] == 0.03 for m in getattr(asked, "members", [asked]))
 
 
 @pytest.mark.parametrize("scenario", ["pm-section1", "pm-roadtest"])
@@ -294,9 +298,12 @@ def test_accel_regressor_and_curvature_remove_the_slope_lag_on_clean_data(scenar
     variants = {"two-state": {"grade_curvature_std": 0.0},
                 "accel_regressor": {"grade_curvature_std": 0.0, "accel_regressor": True},
                 "curvature": {"grade_curvature_std": 0.01}}
+    # the mass gate of sessions 19-21 (0.05 m/s² in both members): the point member then learns only in the
+    # accelerations, where the lag shows (session 22's gate also learns at constant speed: next test)
+    gate = {"min_accel_mps2": 0.05, "point_min_accel_mps2": None}
     errs, slope = {}, {}
     for label, options in variants.items():
-        s = estimators.make("dffrls-aekf", **options).run(tr)
+        s = estimators.make("dffrls-aekf", **options, **gate).run(tr)
         errs[label] = error_after_settling(tr["t_s"], s.mass_kg, tr["mass_kg"], 10.0, relative=True).max_abs
         slope[label] = error_after_settling(tr["t_s"], s.slope_deg, tr["slope_deg"], 10.0).rmse
     assert errs["accel_regressor"] < 2.5 < 3.5 < errs["two-state"], errs
@@ -305,29 +312,34 @@ def test_accel_regressor_and_curvature_remove_the_slope_lag_on_clean_data(scenar
 
 
 @pytest.mark.parametrize("scenario", ["pm-section1", "pm-roadtest", "pm-resistance-mismatch"])
-def test_point_member_gate_option(scenario: str) -> None:
-    """``point_min_accel_mps2`` (session 22, measured and not the default): the gate of the point-mass member alone.
-    Off by default (None: the common 0.05 m/s²). Set to 0 with a 0.03 m/s² common gate, the point member corrects its
-    mass at constant speed too, where a grade change excites the regression: on clean point-mass traces the max mass
-    error after 10 s falls from 2.4-3.9 % to 1.2-2.2 % (docs/estimation.md, session 22, says why it is not kept)."""
+def test_mass_gate_of_session_22(scenario: str) -> None:
+    """Session 22's mass gate: 0.03 m/s² (was 0.05), and the point-mass member (slope for gravity = the one measured
+    under the sensors) corrects its mass also below it, at constant speed, where a grade change excites the
+    regression -- those samples counted 10x noisier (``weak_accel_noise_factor``: they are correlated over ~100
+    samples and carry the grade's level and the offset's prior more than new information). On clean point-mass
+    traces the max mass error after 10 s falls from 2.4-3.9 % (the old gate) to 1.2-2.6 %."""
     from estimators.metrics import error_after_settling
     from uuom_gym.sim.point_mass import PointMassSensors, point_mass_scenario, simulate_point_mass, with_options
 
-    assert [m.C[kern.MIN_ACC] for m in estimators.make("dffrls-aekf").members] == [0.05, 0.05]
-    asked = {"min_accel_mps2": 0.03, "point_min_accel_mps2": 0.0}
-    assert [m.C[kern.MIN_ACC] for m in estimators.make("dffrls-aekf", **asked).members] == [0.0, 0.03]
-    assert estimators.make("dffrls-aekf", train_length_m=12.0, **asked).single.C[kern.MIN_ACC] == 0.03
-    assert estimators.make("fused", point_min_accel_mps2=0.0).C[kern.MIN_ACC] == 0.05  # a 14 m window: not a point
+    bank = estimators.make("dffrls-aekf")
+    assert [(m.C[kern.MIN_ACC], m.C[kern.WEAK_ACC], m.C[kern.WEAK_R]) for m in bank.members] == [
+        (0.0, 0.03, 10.0), (0.03, 0.03, 10.0)]  # the window member has no band between the two thresholds
+    assert estimators.make("dffrls-aekf", train_length_m=12.0).single.C[kern.MIN_ACC] == 0.03
+    assert estimators.make("dffrls-aekf", train_length_m=0.0, point_min_accel_mps2=None).single.C[kern.MIN_ACC] == 0.03
+    assert estimators.make("fused").C[kern.MIN_ACC] == 0.05
     for bad in (-0.1, math.nan, math.inf, True, "0"):
         with pytest.raises(ValueError, match="point_min_accel_mps2"):
             estimators.make("dffrls-aekf", point_min_accel_mps2=bad)
+    for bad in (0.5, math.nan, -1.0):
+        with pytest.raises(ValueError, match="weak_accel_noise_factor"):
+            estimators.make("dffrls-aekf", weak_accel_noise_factor=bad)
 
     tr = simulate_point_mass(with_options(point_mass_scenario(scenario), sensors=PointMassSensors.perfect()), seed=0)
     errs = {}
-    for label, options in {"default": {}, "point member on grades": asked}.items():
+    for label, options in {"now": {}, "before": {"min_accel_mps2": 0.05, "point_min_accel_mps2": None}}.items():
         s = estimators.make("dffrls-aekf", **options).run(tr)
         errs[label] = error_after_settling(tr["t_s"], s.mass_kg, tr["mass_kg"], 10.0, relative=True).max_abs
-    assert errs["point member on grades"] < 2.5 and errs["point member on grades"] < 0.7 * errs["default"], errs
+    assert errs["now"] < 3.0 and errs["now"] < 0.8 * errs["before"], errs
 
 
 def test_curvature_state_follows_a_vertical_curve_and_keeps_its_covariance_pd(faulty: Trace) -> None:

@@ -192,6 +192,10 @@ class UUOMTrackEnv(gym.Env):
     * v0 (rev. 10, no id change, behaviour unchanged): the registered ``dffrls-aekf``'s slope layer carries the
       grade's curvature (``grade_curvature_std``); chosen with the point-mass world in view and neutral to slightly
       worse on this plant, it stays off here (``observers.PLANT_GRADE_OPTIONS``), so episodes are identical.
+    * v0 (rev. 11, no id change, behaviour unchanged): the registered ``dffrls-aekf`` learns its mass from
+      accelerations down to 0.03 m/s² (was 0.05) and, in its point-mass member, also at constant speed (those samples
+      counted 30x noisier); neutral for the env's one 12 m filter, the env keeps 0.05
+      (``observers.PLANT_MASS_GATE_OPTIONS``), so episodes are identical.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -513,8 +513,8 @@ def step(S, H, C, torque, speed, accel, dt):
         pd -= k2 * ph2
     else:
         if abs(a_load_f) < C[WEAK_ACC]:
-            # little acceleration: the sample is mostly the grade's level and the offset's prior, and it is correlated
-            # with its neighbours over ~CORR_N samples: counted as that much noisier
+            # below the common gate (a point-mass filter only): the sample is mostly the grade's level and the offset's
+            # prior, and it is correlated with its neighbours over ~CORR_N samples: counted WEAK_R times noisier
             s_m += C[R_M] * (C[WEAK_R] - 1.0)
             k2 = ph2 / s_m
         k1 = ph1 / s_m

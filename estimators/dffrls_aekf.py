@@ -44,9 +44,9 @@ factor λ_k = δ + (1−δ) exp(−σ|e_k|)
 variance. The mass is corrected only from |a_L| ≥ ``min_accel_mps2`` (0.03 m/s²; Schmidt update otherwise: at
 constant speed a slope error of the upper layer would be read as mass), except in a point-mass filter
 (``train_length_m=0``), whose slope for gravity is the measured one: it also learns at constant speed, from the
-grades it drives through, counting those samples ``weak_accel_noise_factor`` (10) times noisier (session 22). No update at standstill, without traction
-(the brake force is not measured), before the slope layer has settled, or while the slope under the train changes
-faster than the two-point history can follow (``max_slope_spread_rad``).
+grades it drives through, counting those samples ``weak_accel_noise_factor`` (10) times noisier (session 22). No
+update at standstill, without traction (the brake force is not measured), before the slope layer has settled, or
+while the slope under the train changes faster than the two-point history can follow (``max_slope_spread_rad``).
 
 Robust by construction (see :mod:`estimators.dffrls_aekf_kernel`): inputs checked for finiteness and magnitude,
 spike gates, dt NaN/0/negative = sample ignored, dt above ``gap_s`` = a gap (restart, no integration over it).
@@ -256,6 +256,8 @@ class DFFRLSAEKFConfig:
                         "min_accel_mps2", "offset_forgetting_ratio", "accel_bias_std_mps2",
                         "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after", "max_early_evidence",
                         "grade_curvature_std", "weak_accel_noise_factor")
+        if self.point_min_accel_mps2 is not None:  # None: the common gate
+            non_negative += ("point_min_accel_mps2",)
         for name in positive + non_negative:
             x = getattr(self, name)
             if isinstance(x, bool) or not isinstance(x, (int, float)) or math.isnan(x) or (
@@ -271,9 +273,6 @@ class DFFRLSAEKFConfig:
                 f"dffrls-aekf: mass_forgetting_ratio must be in [0, 1], got {self.mass_forgetting_ratio!r}")
         if not self.weak_accel_noise_factor >= 1.0:
             raise ValueError(f"dffrls-aekf: weak_accel_noise_factor must be >= 1, got {self.weak_accel_noise_factor!r}")
-        pg = self.point_min_accel_mps2
-        if pg is not None and (isinstance(pg, bool) or not isinstance(pg, (int, float)) or not 0.0 <= pg < math.inf):
-            raise ValueError(f"dffrls-aekf: point_min_accel_mps2 must be None or a finite number >= 0, got {pg!r}")
         mu0 = v.running_resistance if self.running_resistance is None else float(self.running_resistance)
         if not (0.0 <= mu0 < 0.5):
             raise ValueError(f"dffrls-aekf: running_resistance must be in [0, 0.5), got {mu0!r}")

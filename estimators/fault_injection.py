@@ -35,6 +35,14 @@ pendulum is the wrong model of this rigid load (clean mass at the 16 t clamp for
 weighs evidence from a broken force balance); ``fused`` likewise (clean mass 3.4-5.6 t low with its pendulums, 0.1 t
 high rigid; session 19). Used by the recovery test and ``scripts/fault_recovery.py``."""
 
+RECOVERY_MASS_KG = 26_000.0
+"""The mass of :func:`seven_channel_rows`' train in the recovery test and ``scripts/fault_recovery.py``."""
+
+RECOVERY_BOUNDS: dict[str, float] = {"mass": 0.02 * RECOVERY_MASS_KG, "slope": math.radians(0.15), "slip_ratio": 0.01,
+                                     "drive_radius_m": 5e-4}
+"""How far each declared output may be from its clean run 12 s after a fault (mean |difference|): 2 % of the mass,
+0.15°, 0.01 slip ratio, 0.5 mm radius -- issue 10's recovery requirement, as the test and the script apply it."""
+
 
 def seven_channel_rows(mass_kg: float = 26_000.0, duration_s: float = 40.0, dt_s: float = 0.005,
                        seed: int = 3) -> np.ndarray:
@@ -100,4 +108,5 @@ def run_outputs(name: str, rows: np.ndarray, **options: object) -> dict[str, np.
     return out
 
 
-__all__ = ["COLUMNS", "FAULTS", "RECOVERY_OPTIONS", "inject", "output_value", "run_outputs", "seven_channel_rows"]
+__all__ = ["COLUMNS", "FAULTS", "RECOVERY_BOUNDS", "RECOVERY_MASS_KG", "RECOVERY_OPTIONS", "inject", "output_value",
+           "run_outputs", "seven_channel_rows"]

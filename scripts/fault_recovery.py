@@ -26,13 +26,13 @@ import math
 import numpy as np
 
 import estimators
-from estimators.fault_injection import FAULTS, RECOVERY_OPTIONS, inject, run_outputs, seven_channel_rows
+from estimators.fault_injection import (FAULTS, RECOVERY_BOUNDS, RECOVERY_MASS_KG, RECOVERY_OPTIONS, inject,
+                                       run_outputs, seven_channel_rows)
 from uuom_core.synthetic import synthetic_trace
 
 SCALE = {"mass": (1.0, "kg"), "slope": (math.degrees(1.0), "deg"), "slip_ratio": (1.0, ""),
          "drive_radius_m": (1e3, "mm")}
-MASS_KG, DURATION_S, DT = 26_000.0, 40.0, 0.005
-BOUND = {"mass": 0.02 * MASS_KG, "slope": math.radians(0.15), "slip_ratio": 0.01, "drive_radius_m": 5e-4}
+MASS_KG, DURATION_S, DT = RECOVERY_MASS_KG, 40.0, 0.005
 
 
 def _seeds(text: str) -> list[int]:
@@ -95,7 +95,7 @@ def main() -> None:
                     cells.append("–")
                     continue
                 values = np.array(got, dtype=float)
-                over = int(np.sum(~(values <= BOUND.get(k, math.inf))))  # a non-finite output counts as over
+                over = int(np.sum(~(values <= RECOVERY_BOUNDS.get(k, math.inf))))  # a non-finite output counts as over
                 worst = "non-finite" if np.isnan(values).any() else f"{float(values.max()) * scale:.3g}"
                 cells.append(worst + (f" ({over}/{len(values)} over)" if several else ""))
             print(f"| `{name}` | {label} | " + " | ".join(cells) + " |")

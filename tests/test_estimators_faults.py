@@ -13,20 +13,20 @@ Outputs are finite throughout.
 
 from __future__ import annotations
 
-import math
 from functools import lru_cache
 
 import numpy as np
 import pytest
 
 import estimators
-from estimators.fault_injection import FAULTS, RECOVERY_OPTIONS, inject, run_outputs, seven_channel_rows
+from estimators.fault_injection import (FAULTS, RECOVERY_BOUNDS, RECOVERY_MASS_KG, RECOVERY_OPTIONS, inject,
+                                       run_outputs, seven_channel_rows)
 
 DT = 0.005
 FAULT = slice(int(10.0 / DT), int(13.0 / DT))
 SCORED = slice(int(25.0 / DT), None)
-MASS_KG = 26_000.0
-BOUND = {"mass": 0.02 * MASS_KG, "slope": math.radians(0.15), "slip_ratio": 0.01, "drive_radius_m": 5e-4}
+MASS_KG = RECOVERY_MASS_KG
+BOUND = RECOVERY_BOUNDS  # mass 2 % of the true mass, slope 0.15 deg, slip ratio 0.01, drive radius 0.5 mm
 
 OPTIONS = RECOVERY_OPTIONS  # the options for this trace's world (a rigid point mass), and why: see its docstring
 

@@ -194,7 +194,7 @@ class UUOMTrackEnv(gym.Env):
       worse on this plant, it stays off here (``observers.PLANT_GRADE_OPTIONS``), so episodes are identical.
     * v0 (rev. 11, no id change, behaviour unchanged): the registered ``dffrls-aekf`` learns its mass from
       accelerations down to 0.03 m/s² (was 0.05) and, in its point-mass member, also at constant speed (those samples
-      counted 30x noisier); neutral for the env's one 12 m filter, the env keeps 0.05
+      counted 10x noisier); neutral for the env's one 12 m filter, the env keeps 0.05
       (``observers.PLANT_MASS_GATE_OPTIONS``), so episodes are identical.
     """
 

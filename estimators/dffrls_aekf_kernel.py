@@ -39,7 +39,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
     EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
-    CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R,
+    CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
@@ -428,7 +428,9 @@ def step(S, H, C, torque, speed, accel, dt):
         S[T_MISSING] += dt
         if S[T_MISSING] > 0.1:
             S[T_VALID] = 0.0
-    usable = (raw_ok and S[LF_OK] != 0.0 and S[T_VALID] > C[SETTLE_S] and vf > C[MIN_SPEED] and F > C[MIN_FORCE]
+    # a measured force, traction or electric braking; near zero torque an unmeasured brake may act (the plant's)
+    force_ok = F > C[MIN_FORCE] or (C[BRAKING] != 0.0 and F < -C[MIN_FORCE])
+    usable = (raw_ok and S[LF_OK] != 0.0 and S[T_VALID] > C[SETTLE_S] and vf > C[MIN_SPEED] and force_ok
               and S[P22] < C[READY_VAR])
     if not usable:
         return

@@ -77,7 +77,8 @@ P0_KAP = 68  # prior variance of the curvature (rad/m)^2
 KAP_MAX = 69  # bound of the curvature (rad/m)
 WEAK_ACC = 70  # below this load acceleration (and above MIN_ACC) a mass update counts the sample WEAK_R times noisier
 WEAK_R = 71
-CHAIN_SET = 72  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+BRAKING = 72  # 1: samples of measured electric braking (drive force below -MIN_FORCE) are usable too
+CHAIN_SET = 73  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8

@@ -42,7 +42,8 @@ from .dffrls_aekf import DFFRLSAEKF, DFFRLSAEKFConfig
 __all__ = ["FusedObserver", "FUSED_DEFAULTS"]
 
 FUSED_DEFAULTS = DFFRLSAEKFConfig(fused=True, offset_forgetting_ratio=0.05, train_length_m=14.0,
-                                  max_geometry_ambiguity_rad=0.002, grade_curvature_std=0.0, min_accel_mps2=0.05)
+                                  max_geometry_ambiguity_rad=0.002, grade_curvature_std=0.0, min_accel_mps2=0.05,
+                                  braking_samples=False)
 """The ``fused`` settings: ``dffrls-aekf``'s with a 14 m window and the learned blend, and the offset forgotten 20x
 slower than the dynamic factor asks (so a grade change is explained by the blend, not soaked up by the offset). Chosen on
 plant runs 1000-1015 among offset ratios 0.01-1 and windows 12 / 14 / 18.1 m (12 m: median slope 0.54° but 90th
@@ -52,7 +53,10 @@ scenarios' max mass error over sensor seeds 0-9 12.6 → 14.0 % (session 21). Th
 regression (``accel_regressor``) stays off here too: on plant tuning runs 1000-1199 it raised ``fused``'s median mass
 max error 6.6 → 7.4 % (docs/estimation.md, session 20). The mass gate keeps 0.05 m/s² (``dffrls-aekf``'s is 0.03 since
 session 22): on plant tuning runs 1000-1199 0.03 gave median / p90 / p95 mass max error 6.55 / 19.77 / 26.63 →
-6.23 / 20.47 / 26.82 % (a wash) and 0 34.2 % at p95."""
+6.23 / 20.47 / 26.82 % (a wash) and 0 34.2 % at p95. Traction samples only (``braking_samples=False``; ``dffrls-aekf``
+learns from measured electric braking too since session 23): on point-mass runs 1000-1059 braking samples moved the
+median mass max error 5.00 → 5.66 % (p95 20.0 → 18.2 %, slope better): with no spread gate, the regression reads the
+slope layer's lag on vertical curves braked through as mass (the plant never brakes with its motors: no change there)."""
 
 
 class FusedObserver(DFFRLSAEKF):

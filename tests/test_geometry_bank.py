@@ -208,3 +208,25 @@ def test_env_tells_its_observer_the_plants_geometry() -> None:
     assert est.windows_m == (12.0,)
     assert make_observer("dffrls-aekf", DEFAULT_VEHICLE, {"windows_m": (0.0, 12.0)}).estimator.windows_m == (0.0, 12.0)
     assert make_observer("dffrls-aekf", DEFAULT_VEHICLE, {"train_length_m": 0.0}).estimator.windows_m == (0.0,)
+
+
+def test_electric_braking_is_a_measured_force() -> None:
+    # point-mass run 1023 (a tuning seed, not one of the protocol's evaluation runs) brakes with its motors through
+    # grade changes: those samples now score the geometries and teach the mass (session 23)
+    tr = make_run(RunSpec("point", "point-1023", 1023, 1023, "point"))
+    assert np.mean(tr["torque_nm"] < -1000.0) > 0.1
+    mass, slope = _errors(tr, estimators.make("dffrls-aekf").run(tr))
+    mass_t, slope_t = _errors(tr, estimators.make("dffrls-aekf", braking_samples=False).run(tr))
+    assert slope < 0.6 * slope_t and mass < 0.5 * mass_t
+    assert mass < 0.04 and slope < 0.5
+
+
+def test_braking_samples_change_nothing_where_the_motors_never_brake() -> None:
+    # the plant brakes with its brake cars, the motors at ~0 N m: its runs (and every env episode) are unchanged
+    tr = protocol_run("plant", 0)
+    a = estimators.make("dffrls-aekf").run(tr)
+    b = estimators.make("dffrls-aekf", braking_samples=False).run(tr)
+    for x, y in ((a.mass_kg, b.mass_kg), (a.slope_rad, b.slope_rad), (a.mass_std_kg, b.mass_std_kg)):
+        np.testing.assert_array_equal(x, y)
+    assert estimators.make("dffrls-aekf").config.braking_samples
+    assert not estimators.make("fused").config.braking_samples  # measured worse at the median (estimators/fused.py)

@@ -15,7 +15,8 @@ Usage::
 
 Prints one line per scenario and configuration (``--per-run``: per run too; max |mass error| % after 10 s
 (``--settle S``: after S s), slope RMSE ° against the train-averaged slope), then per group (``tuning`` = plant runs
-1000-1015 (``--tuning N``: the first N from 1000), ``plant``, ``point``, ``pm-sc`` = the scenarios) the median /
+1000-1015 (``--tuning N``: the first N from 1000), ``tun-pt`` = point-mass runs from seed 1000 (``--point-tuning N``,
+default none), ``plant``, ``point``, ``pm-sc`` = the scenarios) the median /
 p90 / p95 / max of the mass error and the median / p95 of the slope RMSE.
 
 ``--scenario-seeds N`` runs every point-mass scenario with sensor seeds 0..N-1 (seed 0 is the protocol's run; the
@@ -48,12 +49,16 @@ from uuom_gym.sim.protocol_runs import RunSpec, make_run, protocol_runs
 
 DEFAULT_CONFIGS = [["dffrls-aekf", "dffrls-aekf", {}], ["fused", "fused", {}]]
 TUNING_FIRST = 1000
-"""Plant tuning runs are seeds 1000, 1001, ...: never among the protocol's evaluation runs (seeds from 0)."""
+"""Tuning runs are seeds 1000, 1001, ...: never among the protocol's evaluation runs (seeds from 0)."""
 
 
-def _specs(n: int, n_tuning: int = 16, scenario_seeds: int = 1) -> list[tuple[str, RunSpec]]:
+def _specs(n: int, n_tuning: int = 16, scenario_seeds: int = 1, n_point_tuning: int = 0) -> list[tuple[str, RunSpec]]:
     out = [("tuning", RunSpec("plant", f"plant-{i}", i, i, "plant"))
            for i in range(TUNING_FIRST, TUNING_FIRST + n_tuning)]
+    # the second world's own draws outside the evaluation set: to see a change where it acts (the protocol's rule
+    # stays: settings are chosen on the plant)
+    out += [("tun-pt", RunSpec("point", f"point-{i}", i, i, "point"))
+            for i in range(TUNING_FIRST, TUNING_FIRST + n_point_tuning)]
     out += [("plant", RunSpec("plant", f"plant-{i:03d}", i, i, "plant")) for i in range(n)]
     out += [("point", RunSpec("point", f"point-{i:03d}", i, i, "point")) for i in range(n)]
     scenarios = [s for s in protocol_runs(0, 0, paper_seeds=1, fault_seeds=0) if s.world == "point"]
@@ -94,6 +99,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--runs", type=int, default=30, help="random runs per world (0..runs-1)")
     ap.add_argument("--tuning", type=int, default=16,
                     help="plant tuning runs (seeds 1000..1000+N-1; the historical tuning set is the first 16)")
+    ap.add_argument("--point-tuning", type=int, default=0, metavar="N",
+                    help="also point-mass runs with seeds 1000..1000+N-1 (none of them an evaluation run)")
     ap.add_argument("--configs", type=json.loads, default=DEFAULT_CONFIGS,
                     help='JSON list of [label, estimator, {options}] (default: dffrls-aekf and fused)')
     ap.add_argument("--workers", type=int, default=2)
@@ -109,6 +116,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.scenario_seeds < 1:
         ap.error(f"--scenario-seeds must be >= 1, got {args.scenario_seeds}")
+    if min(args.runs, args.tuning, args.point_tuning) < 0:
+        ap.error("--runs, --tuning and --point-tuning must be >= 0")
     if args.decimate < 1:
         ap.error(f"--decimate must be >= 1, got {args.decimate}")
     if not 0.0 <= args.settle < 55.0:
@@ -119,7 +128,7 @@ def main(argv: list[str] | None = None) -> int:
     for _, name, options in configs:
         get_class(name)(**options)  # an unknown estimator or option fails here, named, before any run
     jobs = [(g, s, configs, args.decimate, args.settle, args.clean_sensors)
-            for g, s in _specs(args.runs, args.tuning, args.scenario_seeds)]
+            for g, s in _specs(args.runs, args.tuning, args.scenario_seeds, args.point_tuning)]
     with multiprocessing.Pool(max(1, args.workers)) as pool:
         rows = [r for rs in pool.map(_score, jobs, chunksize=1) for r in rs]
     specs = [s for _, s, *_ in jobs for _ in configs]

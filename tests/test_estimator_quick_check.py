@@ -81,3 +81,16 @@ def test_clean_sensors_leave_only_the_physics():
         np.testing.assert_array_equal(a[c], b[c])
     np.testing.assert_allclose(a["speed_mps"], a["true_speed_mps"], atol=0.0)
     assert not np.array_equal(a["accel_mps2"], make_run(spec)["accel_mps2"])
+
+
+def test_point_tuning_runs_are_seeded_outside_the_evaluation_set():
+    specs = qc._specs(0, 0, 1, 3)
+    tun = [s for g, s in specs if g == "tun-pt"]
+    assert [(s.world, s.seed) for s in tun] == [("point", 1000), ("point", 1001), ("point", 1002)]
+    assert not [s for g, s in qc._specs(0, 0, 1) if g == "tun-pt"]
+
+
+def test_negative_run_counts_are_refused_before_any_run(capsys):
+    with pytest.raises(SystemExit) as exc:
+        qc.main(["--point-tuning", "-1", "--runs", "0", "--tuning", "0"])
+    assert exc.value.code == 2 and "must be >= 0" in capsys.readouterr().err

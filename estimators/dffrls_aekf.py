@@ -46,7 +46,8 @@ constant speed a slope error of the upper layer would be read as mass), except i
 (``train_length_m=0``), whose slope for gravity is the measured one: it also learns at constant speed, from the
 grades it drives through, counting those samples ``weak_accel_noise_factor`` (10) times noisier (session 22). No
 update at standstill, near zero drive torque (an unmeasured brake may act; measured electric braking counts since
-session 23: ``braking_samples``), before the slope layer has settled, or while the slope under the train changes faster than the two-point history can follow (``max_slope_spread_rad``).
+session 23: ``braking_samples``), before the slope layer has settled, or while the slope under the train changes
+faster than the two-point history can follow (``max_slope_spread_rad``).
 
 Robust by construction (see :mod:`estimators.dffrls_aekf_kernel`): inputs checked for finiteness and magnitude,
 spike gates, dt NaN/0/negative = sample ignored, dt above ``gap_s`` = a gap (restart, no integration over it).
@@ -188,10 +189,10 @@ class DFFRLSAEKFConfig:
         (default True since session 23; before, traction only). Near zero torque a brake the torque transducer does
         not see may act (the plant brakes on down-grades with its motors at ~0 N·m), so those samples stay out; a
         measured negative torque is a measured force. The plant never brakes with its motors (its runs are unchanged,
-        bit for bit); on point-mass runs 1000-1059 (none of them an evaluation run) the bank's slope RMSE median / p90
-        / p95 0.175 / 0.792 / 0.969 → 0.166 / 0.519 / 0.667°, mass max error unchanged (3.32 / 8.48 / 14.14 %), the
-        evidence picks the point geometry by 23.9 s instead of 34.8 s (median). Set False where a mechanical brake
-        may act together with the motors (the torque would then not be the whole force).
+        bit for bit); on point-mass runs 1000-1059 (none of them an evaluation run) the bank's slope RMSE p95 0.97 →
+        0.67°, mass max error unchanged (median / p95 3.32 / 14.14 %;
+        ``results/estimation/braking_samples_session23.txt``).
+        Set False where a mechanical brake may act together with the motors (the torque is then not the whole force).
     prior_curvature_std_per_m : float
         Prior (and cap) of the curvature's standard deviation (rad/m; 0.01: 6° of grade change over 10 m).
     max_curvature_per_m : float

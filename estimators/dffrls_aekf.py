@@ -106,8 +106,16 @@ class DFFRLSAEKFConfig:
         (A) No mass update while the slope under the sensors and ``spread_length_m`` behind differ by more.
     max_geometry_ambiguity_rad : float
         (A) Geometry bank only: no mass update while its members' slopes for gravity, weighted by their evidence,
-        spread (standard deviation) by more (0.004 rad = 0.23°, chosen on plant tuning runs 1000-1015: median mass
-        max error 6.7 → 5.3 %, 95th percentile unchanged). A single filter never sees an ambiguity. ``fused``: no mass
+        spread (standard deviation) by more: 2.5e-4 rad (0.014°) since session 23 (0.004 rad from session 9, chosen
+        on runs 1000-1015). A slope error δ moves a mass learnt from an acceleration a by g δ / a: 0.004 rad let the
+        geometry's doubt move the mass by 13 % at 0.3 m/s²; 2.5e-4 rad by 2 % at 0.12 m/s². In effect the mass learns
+        where the members agree (one grade over the window) or once the evidence has chosen. Plant tuning runs
+        1000-1199, mass max error median / p90 / p95: 0.004 rad 7.87 / 19.55 / 24.36 %, 1e-3 6.62 / 17.94 / 23.14,
+        **2.5e-4 5.64 / 17.03 / 23.09**, 1e-4 5.40 / 16.79 / 23.12, 6e-5 5.16 / 16.98 / 23.12, 3e-5 4.93 / 16.73 /
+        23.11, 1e-5 4.94 / 17.64 / 24.75 %: a plateau from 3e-5 to 2.5e-4, of which the largest is kept, because
+        below ~1e-4 the gate closes on the slope layer's noise rather than on geometry (a level start: pm-section1
+        with 1.7 m chains 3.4 / 3.8 / 5.8 / 6.7 % at 0.004 / 2.5e-4 / 1e-4 / 6e-5; docs/estimation.md, session 23).
+        A single filter never sees an ambiguity (the env's observer). ``fused``: no mass
         update while its learned blend leaves the slope for gravity that uncertain, ``std(α) |sin θ_s − sin θ_win|``
         (its default 0.002 rad, chosen on plant tuning runs 1000-1299: mass max error median / p90 / p95 7.95 / 23.1
         / 33.2 % without the gate, 7.92 / 22.7 / 31.6 % at 0.004, 7.79 / 21.9 / 30.5 % at 0.002; session 10).
@@ -213,7 +221,7 @@ class DFFRLSAEKFConfig:
     gates: bool = True
     adapt_r: bool = True
     max_slope_spread_rad: float = 0.025
-    max_geometry_ambiguity_rad: float = 0.004
+    max_geometry_ambiguity_rad: float = 2.5e-4
     max_early_evidence: float = 1.0
     cutoff_hz: float = 1.0
     # slope layer

@@ -196,6 +196,10 @@ class UUOMTrackEnv(gym.Env):
       accelerations down to 0.03 m/s² (was 0.05) and, in its point-mass member, also at constant speed (those samples
       counted 10x noisier); neutral for the env's one 12 m filter, the env keeps 0.05
       (``observers.PLANT_MASS_GATE_OPTIONS``), so episodes are identical.
+    * v0 (rev. 12, no id change, behaviour unchanged): the registered ``dffrls-aekf`` uses measured electric braking
+      (negative drive torque) and its geometry bank's ambiguity gate is 2.5e-4 rad (was 0.004); this plant's motors
+      never brake and the env's observer is one 12 m filter, which has no ambiguity, so episodes are identical (with
+      ``sensor_faults``, a torque reading below −2 % of the traction limit now counts as electric braking).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

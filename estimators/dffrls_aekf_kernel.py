@@ -39,9 +39,10 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
     EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
-    CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING,
+    CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
+from .input_faults import STUCK_STATE, stuck_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
 
 _kf_update = njit(cache=True, inline="always")(filters.kalman_update_2x2_h1)
@@ -114,6 +115,7 @@ def reset(S, H, C):
     S[MB] = 0.5 * c0  # fused: beta = c alpha, alpha = 0.5 (weight of the slope under the sensors) a priori
     S[PB] = C[P0_B]
     S[NIS] = 1.0  # its expected value until the first speed correction (an output is never NaN)
+    S[STUCK_ST] = math.nan  # no accelerometer value seen yet
     for k in range(int(C[N_CHAIN])):
         S[CHAIN_ST + CHAIN_ST_W * k + 6] = C[CHAIN_SET + CHAIN_SET_W * k + 3]
     H[:] = 0.0
@@ -226,6 +228,9 @@ def step(S, H, C, torque, speed, accel, dt):
     relock = C[RELOCK]
     T = _gate(S, GT_LAST, torque, dt, C[T_MAX], C[T_RATE], C[T_BAND], relock, use_rate)
     z = _gate(S, GV_LAST, speed, dt, C[V_MAX], C[V_RATE], C[V_BAND], relock, use_rate)
+    # a frozen accelerometer (one value repeated, after it has shown its noise) counts as missing: it is plausible,
+    # and three seconds of it turn the geometry bank's weights (pm-sensor-faults; docs/estimation.md, session 23)
+    accel = stuck_step(S[STUCK_ST:STUCK_ST + STUCK_STATE], C[STUCK_N], accel)
     f = _gate(S, GF_LAST, accel, dt, C[F_MAX], C[F_RATE], C[F_BAND], relock, use_rate)
 
     # ---------------- slope layer: adaptive EKF on [v, theta_sensor] --------------------------------------------

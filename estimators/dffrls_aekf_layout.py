@@ -78,7 +78,8 @@ KAP_MAX = 69  # bound of the curvature (rad/m)
 WEAK_ACC = 70  # below this load acceleration (and above MIN_ACC) a mass update counts the sample WEAK_R times noisier
 WEAK_R = 71
 BRAKING = 72  # 1: samples of measured electric braking (drive force below -MIN_FORCE) are usable too
-CHAIN_SET = 73  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+STUCK_N = 73  # the accelerometer repeating one value this many times in a row is stuck (0: no detector)
+CHAIN_SET = 74  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8
@@ -165,7 +166,8 @@ KAP = 77  # the grade's curvature d(theta)/ds (rad/m): third state of the slope 
 P13 = 78  # its covariances with v, theta and itself
 P23 = 79
 P33 = 80
-CHAIN_ST = 81  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
+STUCK_ST = 81  # the accelerometer's stuck detector (estimators.input_faults.stuck_step; STUCK_STATE = 4 slots)
+CHAIN_ST = 85  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
 #   low-pass of its load acceleration (3 slots), that acceleration, its force-balance evidence (negative log-lik.)
 CHAIN_ST_W = 7
 N_S = CHAIN_ST + CHAIN_ST_W * MAX_CHAINS

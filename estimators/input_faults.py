@@ -26,10 +26,35 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .filters import check_int_option, check_number_options
+from .numba_shim import njit
 
 _RATE_GAIN = 0.01  # memory of the noise rate: ~100 samples (0.5 s at 200 Hz)
 _NOISY = 1.0 / 3.0  # half of white noise's rate of direction reversals
+
+STUCK_STATE = 4
+"""Length of :func:`stuck_step`'s state: the last value, the last change, the run length, the noise rate."""
+
+
+@njit(cache=True)
+def stuck_step(st, min_repeats, value):
+    """One sample through the stuck rule of :class:`StuckDetector`, its state in ``st`` (:data:`STUCK_STATE`
+    entries, the first NaN at the start): ``value``, or NaN while the channel is stuck. Compiled, so the
+    ``dffrls-aekf`` kernel runs the same rule on its accelerometer."""
+    if not (value == value) or abs(value) == math.inf or min_repeats <= 0.0:
+        return value
+    last = st[0]
+    change = value - last if last == last else 0.0
+    st[2] = st[2] + 1.0 if change == 0.0 else 1.0
+    st[0] = value
+    if st[2] < min_repeats:  # a stuck run must not teach the channel that it has no noise
+        st[3] += _RATE_GAIN * ((1.0 if change * st[1] < 0.0 else 0.0) - st[3])
+        st[1] = change
+    elif st[3] > _NOISY:
+        return math.nan
+    return value
 
 
 class JumpGate:
@@ -94,26 +119,20 @@ class StuckDetector:
         self.reset()
 
     def reset(self) -> None:
-        self._value = math.nan
-        self._change = 0.0
-        self._run = 0
+        self._st = np.array([math.nan, 0.0, 0.0, 0.0])
         self.n_stuck = 0
-        self.noise_rate = 0.0
+
+    @property
+    def noise_rate(self) -> float:
+        return float(self._st[3])
 
     def __call__(self, value: float) -> float:
         """``value``, or ``NaN`` while the channel is stuck; a ``NaN`` in gives ``NaN`` out."""
-        if not math.isfinite(value) or self.min_repeats == 0:
-            return value
-        change = value - self._value if math.isfinite(self._value) else 0.0
-        self._run = self._run + 1 if change == 0.0 else 1
-        self._value = value
-        if self._run < self.min_repeats:  # a stuck run must not teach the channel that it has no noise
-            self.noise_rate += _RATE_GAIN * (float(change * self._change < 0.0) - self.noise_rate)
-            self._change = change
-        elif self.noise_rate > _NOISY:
+        value = float(value)
+        out = stuck_step(self._st, float(self.min_repeats), value)
+        if out != out and value == value:
             self.n_stuck += 1
-            return math.nan
-        return value
+        return out
 
 
-__all__ = ["JumpGate", "StuckDetector"]
+__all__ = ["JumpGate", "STUCK_STATE", "StuckDetector", "stuck_step"]

@@ -197,7 +197,9 @@ class UUOMTrackEnv(gym.Env):
       counted 10x noisier); neutral for the env's one 12 m filter, the env keeps 0.05
       (``observers.PLANT_MASS_GATE_OPTIONS``), so episodes are identical.
     * v0 (rev. 12, no id change, behaviour unchanged): the registered ``dffrls-aekf`` uses measured electric braking
-      (negative drive torque) and its geometry bank's ambiguity gate is 2.5e-4 rad (was 0.004); this plant's motors
+      (negative drive torque), drops a frozen accelerometer (``stuck_repeats``, off on the env's fault-free sensors
+      as ``mmae``'s detectors are: ``observers.FAULT_FREE_SENSOR_OPTIONS``; ``fused`` likewise) and its geometry
+      bank's ambiguity gate is 2.5e-4 rad (was 0.004); this plant's motors
       never brake and the env's observer is one 12 m filter, which has no ambiguity, so episodes are identical (with
       ``sensor_faults``, a torque reading below −2 % of the traction limit now counts as electric braking).
     """

@@ -69,7 +69,7 @@ from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from . import dffrls_aekf_kernel as kern
 from .base import Estimate, EstimateSeries, Estimator, first_step_dts
-from .filters import MAX_STEP_S
+from .filters import MAX_STEP_S, check_int_option
 from .regression_front_end import swing_geometry
 
 __all__ = ["DFFRLSAEKF", "DFFRLSAEKFConfig"]
@@ -299,8 +299,7 @@ class DFFRLSAEKFConfig:
         if self.mass_forgetting_ratio > 1.0:
             raise ValueError(
                 f"dffrls-aekf: mass_forgetting_ratio must be in [0, 1], got {self.mass_forgetting_ratio!r}")
-        if isinstance(self.stuck_repeats, bool) or not isinstance(self.stuck_repeats, int) or self.stuck_repeats < 0:
-            raise ValueError(f"dffrls-aekf: stuck_repeats must be an integer >= 0 (0: off), got {self.stuck_repeats!r}")
+        check_int_option("dffrls-aekf: stuck_repeats", self.stuck_repeats, ValueError, minimum=0)
         if not self.weak_accel_noise_factor >= 1.0:
             raise ValueError(f"dffrls-aekf: weak_accel_noise_factor must be >= 1, got {self.weak_accel_noise_factor!r}")
         mu0 = v.running_resistance if self.running_resistance is None else float(self.running_resistance)

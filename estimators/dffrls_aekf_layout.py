@@ -79,7 +79,11 @@ WEAK_ACC = 70  # below this load acceleration (and above MIN_ACC) a mass update 
 WEAK_R = 71
 BRAKING = 72  # 1: samples of measured electric braking (drive force below -MIN_FORCE) are usable too
 STUCK_N = 73  # the accelerometer repeating one value this many times in a row is stuck (0: no detector)
-CHAIN_SET = 74  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+T_JUMP = 74  # a torque sample jumping by more than this (N m) is held back until the next confirms it (0: off)
+F_JUMP = 75  # the same for the accelerometer (m/s^2); both thresholds grow with the channel's noise (JUMP_NOISE)
+JUMP_NOISE = 76
+FILL_SPEED = 77  # 1: a missing speed sample enters the regression's filters as the slope layer's predicted speed
+CHAIN_SET = 78  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8
@@ -167,7 +171,9 @@ P13 = 78  # its covariances with v, theta and itself
 P23 = 79
 P33 = 80
 STUCK_ST = 81  # the accelerometer's stuck detector (estimators.input_faults.stuck_step; STUCK_STATE = 4 slots)
-CHAIN_ST = 85  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
+T_JUMP_ST = 85  # the torque's and the accelerometer's jump gates (estimators.input_faults.jump_step; 3 slots each)
+F_JUMP_ST = 88
+CHAIN_ST = 91  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
 #   low-pass of its load acceleration (3 slots), that acceleration, its force-balance evidence (negative log-lik.)
 CHAIN_ST_W = 7
 N_S = CHAIN_ST + CHAIN_ST_W * MAX_CHAINS

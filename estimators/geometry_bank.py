@@ -14,7 +14,7 @@ signals, capped per sample so a sensor fault cannot decide). The weights are ``w
 forgetting (a train does not change its geometry on the way); the output is the weighted mixture (mean, and
 variance including the spread between members). Evidence gathered while a window member's history still holds the
 start-up guess (the first window length travelled) is kept apart (``S[SCORE_EARLY]``) and may set the members
-apart by at most ``max_early_evidence`` nats (default 1: weights up to 73 / 27): on a point mass it leans the
+apart by at most ``max_early_evidence`` nats (default 1.5: weights up to 82 / 18): on a point mass it leans the
 bank the right way within the first metres, but a long train that starts across a grade change fits its start-up
 guess badly, so only the later evidence may decide (:func:`estimators.geometry_bank_kernel.member_score`).
 """

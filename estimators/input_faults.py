@@ -10,7 +10,8 @@ filters already handle: predict without correcting.
 * :class:`JumpGate`: a sample that differs from the last accepted one by more than ``max_jump`` is held back; when
   the next sample is near it (within ``max_jump``) the new level is real (a step of the drive command) and is
   accepted; when the next sample is back near the old level, the held one was a spike. A real step thus costs one
-  sample; a one-sample spike is never used. Its older relative :class:`~estimators.filters.SpikeGate` (the
+  sample; a one-sample spike is never used. With ``noise_factor`` the threshold grows to that many times the
+  channel's recent mean sample-to-sample change, so a sensor noisier than expected is not cut to pieces. Its older relative :class:`~estimators.filters.SpikeGate` (the
   regression front end, ``sf-kf``) bounds the rate of change instead and re-locks after a count of rejections
   whatever the value; the torque of the env and of a PI driver steps within one sample, so ``mmae`` needs the
   confirmation by the next sample, not a rate.
@@ -57,6 +58,32 @@ def stuck_step(st, min_repeats, value):
 
 _stuck_step_py = getattr(stuck_step, "py_func", stuck_step)  # the plain function where numba is missing
 
+JUMP_STATE = 3
+"""Length of :func:`jump_step`'s state: the last accepted value, the held-back one, the mean |change|."""
+
+
+@njit(cache=True)
+def jump_step(st, max_jump, noise_factor, value):
+    """One sample through the rule of :class:`JumpGate`, its state in ``st`` (:data:`JUMP_STATE` entries, the first
+    two NaN at the start): ``value``, or NaN while it is held back. Compiled, so the ``dffrls-aekf`` kernel runs the
+    same rule on its torque and accelerometer."""
+    if not (value == value) or abs(value) == math.inf or max_jump <= 0.0:
+        return value
+    last = st[0]
+    thr = max(max_jump, noise_factor * st[2])
+    # a NaN last (nothing accepted yet) compares False, so the first finite sample is taken as it is
+    if not abs(value - last) > thr or abs(value - st[1]) <= thr:
+        if last == last:  # a step enters the noise level bounded, so one real step cannot open the gate
+            st[2] += _RATE_GAIN * (min(abs(value - last), thr) - st[2])
+        st[0] = value
+        st[1] = math.nan
+        return value
+    st[1] = value
+    return math.nan
+
+
+_jump_step_py = getattr(jump_step, "py_func", jump_step)
+
 
 class JumpGate:
     """Hold back a sample that jumps by more than ``max_jump`` from the last accepted one until the next confirms it.
@@ -65,6 +92,9 @@ class JumpGate:
     ----------
     max_jump : float
         Largest change between consecutive accepted samples that is taken at once (channel units); 0 = gate off.
+    noise_factor : float, default 0
+        The threshold is ``max(max_jump, noise_factor * mean |change|)``, the mean over about the last 100 accepted
+        samples (each change counted at most at the threshold); 0: ``max_jump`` alone.
 
     Attributes
     ----------
@@ -72,28 +102,25 @@ class JumpGate:
         Samples held back (spikes, and the first sample of every real step).
     """
 
-    def __init__(self, max_jump: float) -> None:
-        check_number_options({"max_jump": max_jump}, ValueError, non_negative=("max_jump",), reject_bool=True)
+    def __init__(self, max_jump: float, noise_factor: float = 0.0) -> None:
+        check_number_options({"max_jump": max_jump, "noise_factor": noise_factor}, ValueError,
+                             non_negative=("max_jump", "noise_factor"), reject_bool=True)
         self.max_jump = float(max_jump)
+        self.noise_factor = float(noise_factor)
         self.reset()
 
     def reset(self) -> None:
-        self._last = math.nan
-        self._pending = math.nan
+        self._st = [math.nan, math.nan, 0.0]
         self.n_held = 0
 
     def __call__(self, value: float) -> float:
         """``value`` if it is accepted, else ``NaN``; a ``NaN`` in gives ``NaN`` out and changes nothing."""
-        if not math.isfinite(value) or self.max_jump == 0.0:
-            return value
-        # a NaN last (nothing accepted yet) compares False, so the first finite sample is taken as it is
-        if not abs(value - self._last) > self.max_jump or abs(value - self._pending) <= self.max_jump:
-            self._last = value
-            self._pending = math.nan
-            return value
-        self._pending = value
-        self.n_held += 1
-        return math.nan
+        value = float(value)
+        # the rule's Python source on a list (a compiled call's dispatch from Python costs more than the rule)
+        out = _jump_step_py(self._st, self.max_jump, self.noise_factor, value)
+        if out != out and value == value:
+            self.n_held += 1
+        return out
 
 
 class StuckDetector:
@@ -138,4 +165,4 @@ class StuckDetector:
         return out
 
 
-__all__ = ["JumpGate", "STUCK_STATE", "StuckDetector", "stuck_step"]
+__all__ = ["JUMP_STATE", "JumpGate", "STUCK_STATE", "StuckDetector", "jump_step", "stuck_step"]

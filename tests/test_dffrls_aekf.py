@@ -390,6 +390,61 @@ def test_a_frozen_accelerometer_is_dropped() -> None:
         estimators.make("dffrls-aekf", stuck_repeats=-1)
 
 
+def _worst_mass_error(tr, **options) -> float:
+    k = tr["t_s"] >= 10.0
+    s = estimators.make("dffrls-aekf", **options).run(tr)
+    return float(np.max(np.abs(s.mass_kg[k] / tr["mass_kg"][k] - 1.0)))
+
+
+def test_accelerometer_spikes_are_held_back_by_the_jump_gate() -> None:
+    """The point-mass road test with +-4 m/s^2 accelerometer spikes (0.2 % of the samples, inside the plausibility
+    gate): sensor seed 4 measured 6.7 % max mass error without the jump gate and 2.2 % with it, as without spikes."""
+    from uuom_gym.sim.point_mass import PointMassFaults, simulate_point_mass, with_options
+
+    clean = simulate_point_mass("pm-roadtest", seed=4)
+    faults = PointMassFaults(spike_prob=0.002, spike_scale={"torque_nm": 0.0, "speed_mps": 0.0, "accel_mps2": 4.0})
+    spiky = simulate_point_mass(with_options("pm-roadtest", faults=faults), seed=4)
+    gated = _worst_mass_error(spiky)
+    assert gated < _worst_mass_error(clean) + 0.01
+    assert gated + 0.02 < _worst_mass_error(spiky, accel_jump_mps2=0.0)
+    with pytest.raises(ValueError, match="accel_jump_mps2"):
+        estimators.make("dffrls-aekf", accel_jump_mps2=-1.0)
+    with pytest.raises(ValueError, match="torque_jump_fraction"):
+        estimators.make("dffrls-aekf", torque_jump_fraction=math.inf)
+
+
+def test_torque_spikes_on_the_plant_give_back_the_clean_run() -> None:
+    """The protocol's plant road test with +-6000 N m spikes (0.5 % of the samples): with the torque's jump gate the
+    mass follows the clean run's (measured RMSE after 10 s 7.2 % clean, 7.6 % gated, 4.1 % with the spikes: random
+    force noise happens to soften the road test's brake-release error; docs/estimation.md, session 24)."""
+    from dataclasses import replace
+
+    from uuom_gym.sim.protocol_runs import make_run, protocol_runs
+
+    spec = next(s for s in protocol_runs(0, 0, paper_seeds=0, fault_seeds=1) if s.name == "fault-spikes-plant-s0")
+    clean, spiky = make_run(replace(spec, fault="")), make_run(spec)
+    k = clean["t_s"] >= 10.0
+    ref = estimators.make("dffrls-aekf").run(clean).mass_kg[k]
+    for tr, options, near in ((spiky, {}, True), (spiky, {"torque_jump_fraction": 0.0}, False)):
+        m = estimators.make("dffrls-aekf", **options).run(tr).mass_kg[k]
+        assert bool(np.sqrt(np.mean((m - ref) ** 2)) / ref.mean() < 0.01) is near
+
+
+def test_a_missing_speed_sample_does_not_pause_the_regression_filters() -> None:
+    """2 % speed dropouts on the point-mass road test, sensor seed 5: a paused speed low-pass reads a too large dv/dt
+    after each dropout and the mass too small (measured -2.4 % max error; +0.7 % without dropouts, -0.9 % with the
+    missing samples filled by the slope layer's predicted speed)."""
+    from uuom_gym.sim.point_mass import PointMassFaults, simulate_point_mass, with_options
+
+    clean = simulate_point_mass("pm-roadtest", seed=5)
+    drop = simulate_point_mass(with_options("pm-roadtest", faults=PointMassFaults(dropout_prob=0.02)), seed=5)
+    cols = dict(clean.columns)
+    cols["speed_mps"] = drop["speed_mps"]  # the speed's dropouts alone
+    tr = Trace(cols, source="speed dropouts", meta=dict(clean.meta))
+    filled, paused = _worst_mass_error(tr), _worst_mass_error(tr, fill_missing_speed=False)
+    assert filled < _worst_mass_error(clean) + 0.005 < paused
+
+
 def test_env_tells_its_observers_their_sensors_have_no_faults() -> None:
     import gymnasium as gym
 
@@ -399,6 +454,8 @@ def test_env_tells_its_observers_their_sensors_have_no_faults() -> None:
     for name in ("dffrls-aekf", "fused"):
         assert estimators.make(name).config.stuck_repeats == 20
         env = gym.make("UUOM-Track-v0", observer=name)
-        assert env.unwrapped.observer.estimator.config.stuck_repeats == 0  # fault-free: nothing to detect
+        cfg = env.unwrapped.observer.estimator.config
+        assert cfg.stuck_repeats == 0 and cfg.accel_jump_mps2 == cfg.torque_jump_fraction == 0.0  # nothing to detect
         faulty = gym.make("UUOM-Track-v0", observer=name, sensor_faults=FaultConfig(spike_prob=0.01))
-        assert faulty.unwrapped.observer.estimator.config.stuck_repeats == 20
+        cfg = faulty.unwrapped.observer.estimator.config
+        assert cfg.stuck_repeats == 20 and cfg.accel_jump_mps2 == 0.5 and cfg.torque_jump_fraction == 0.15

@@ -34,6 +34,21 @@ def test_jump_gate_takes_the_first_sample_and_is_off_at_zero() -> None:
             JumpGate(bad)
 
 
+def test_jump_gate_threshold_grows_with_a_noisier_channel_than_expected() -> None:
+    """A fixed threshold below a channel's noise would hold back every other sample; with ``noise_factor`` the
+    threshold follows the channel's mean change, and a spike far above the noise is still held back."""
+    noisy = np.random.default_rng(1).normal(0.0, 1.0, 2000)
+    fixed = JumpGate(0.5)
+    _feed(fixed, noisy)
+    adaptive = JumpGate(0.5, noise_factor=8.0)
+    out = _feed(adaptive, np.concatenate([noisy, [40.0], noisy[:10]]))
+    assert fixed.n_held > 500
+    assert np.isnan(out[:500]).sum() < 100, "it learns the noise within a few hundred samples"
+    assert np.isnan(out[500:2000]).sum() < 5 and np.isnan(out[2000])
+    with pytest.raises(ValueError, match="noise_factor"):
+        JumpGate(1.0, noise_factor=-1.0)
+
+
 def test_stuck_detector_drops_a_frozen_noisy_channel_until_it_moves_again() -> None:
     rng = np.random.default_rng(0)
     noisy = rng.normal(0.0, 0.05, 400)

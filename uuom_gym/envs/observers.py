@@ -70,8 +70,8 @@ _MASS_GATE_OPTION_NAMES = frozenset({"min_accel_mps2", "point_min_accel_mps2", "
 
 FAULT_FREE_SENSOR_OPTIONS: dict[str, dict[str, Any]] = {
     "mmae": {"torque_jump_fraction": 0.0, "stuck_repeats": 0},
-    "dffrls-aekf": {"stuck_repeats": 0},
-    "fused": {"stuck_repeats": 0},
+    "dffrls-aekf": {"stuck_repeats": 0, "torque_jump_fraction": 0.0, "accel_jump_mps2": 0.0},
+    "fused": {"stuck_repeats": 0, "torque_jump_fraction": 0.0, "accel_jump_mps2": 0.0},
 }
 """What the env tells an observer when its sensors have no faults (``sensor_faults=None``, the default): no spike or
 frozen-channel detection (:mod:`estimators.input_faults`). On a fault-free channel a detector can only mistake data

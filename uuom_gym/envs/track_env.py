@@ -202,6 +202,10 @@ class UUOMTrackEnv(gym.Env):
       bank's ambiguity gate is 2.5e-4 rad (was 0.004); this plant's motors
       never brake and the env's observer is one 12 m filter, which has no ambiguity, so episodes are identical (with
       ``sensor_faults``, a torque reading below −2 % of the traction limit now counts as electric braking).
+    * v0 (rev. 13, no id change, behaviour unchanged): the registered ``dffrls-aekf`` and ``fused`` hold back a
+      one-sample torque or accelerometer spike (jump gates, off on the env's fault-free sensors:
+      ``observers.FAULT_FREE_SENSOR_OPTIONS``) and fill a missing speed sample with their predicted speed; the env's
+      fault-free sensors have neither spikes nor missing samples, so episodes are identical.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -43,7 +43,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
-from .input_faults import JUMP_STATE, STUCK_STATE, jump_step, stuck_step
+from .input_faults import JUMP_STATE, STUCK_STATE, jump_reset, jump_step, stuck_reset, stuck_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
 
 _kf_update = njit(cache=True, inline="always")(filters.kalman_update_2x2_h1)
@@ -116,10 +116,9 @@ def reset(S, H, C):
     S[MB] = 0.5 * c0  # fused: beta = c alpha, alpha = 0.5 (weight of the slope under the sensors) a priori
     S[PB] = C[P0_B]
     S[NIS] = 1.0  # its expected value until the first speed correction (an output is never NaN)
-    S[STUCK_ST] = math.nan  # no accelerometer value seen yet
-    for i in (T_JUMP_ST, F_JUMP_ST):  # no sample accepted or held back yet
-        S[i] = math.nan
-        S[i + 1] = math.nan
+    stuck_reset(S[STUCK_ST:STUCK_ST + STUCK_STATE])
+    jump_reset(S[T_JUMP_ST:T_JUMP_ST + JUMP_STATE])
+    jump_reset(S[F_JUMP_ST:F_JUMP_ST + JUMP_STATE])
     for k in range(int(C[N_CHAIN])):
         S[CHAIN_ST + CHAIN_ST_W * k + 6] = C[CHAIN_SET + CHAIN_SET_W * k + 3]
     H[:] = 0.0

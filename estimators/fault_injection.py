@@ -51,6 +51,12 @@ def seven_channel_rows(mass_kg: float = 26_000.0, duration_s: float = 40.0, dt_s
     Motor speed (0.3 % creep slip), gyro (the slope's rate) and normal accelerometer (``g cos(slope)``) are
     derived from the run's truth with white noise from ``seed``.
     """
+    return seven_channel_run(mass_kg, duration_s, dt_s, seed)[0]
+
+
+def seven_channel_run(mass_kg: float = 26_000.0, duration_s: float = 40.0, dt_s: float = 0.005,
+                      seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`seven_channel_rows` and the run's true slope (rad) beside it."""
     base = synthetic_trace("varying", seed=seed, mass_kg=mass_kg, duration_s=duration_s, dt_s=dt_s)
     rng = np.random.default_rng(seed)
     n = len(base)
@@ -63,7 +69,7 @@ def seven_channel_rows(mass_kg: float = 26_000.0, duration_s: float = 40.0, dt_s
     rows[:, 4] = base["true_speed_mps"] * 1.003 / DEFAULT_VEHICLE.drive_wheel_radius_m + 0.02 * rng.standard_normal(n)
     rows[:, 5] = np.gradient(th, dt_s) + 2e-3 * rng.standard_normal(n)
     rows[:, 6] = G_MPS2 * np.cos(th) + 0.05 * rng.standard_normal(n)
-    return rows
+    return rows, th
 
 
 def inject(rows: np.ndarray, kind: str, start: int, stop: int) -> np.ndarray:
@@ -109,4 +115,4 @@ def run_outputs(name: str, rows: np.ndarray, **options: object) -> dict[str, np.
 
 
 __all__ = ["COLUMNS", "FAULTS", "RECOVERY_BOUNDS", "RECOVERY_MASS_KG", "RECOVERY_OPTIONS", "inject", "output_value",
-           "run_outputs", "seven_channel_rows"]
+           "run_outputs", "seven_channel_rows", "seven_channel_run"]

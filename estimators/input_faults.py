@@ -38,6 +38,15 @@ STUCK_STATE = 4
 
 
 @njit(cache=True)
+def stuck_reset(st):
+    """:func:`stuck_step`'s state at the start: no value seen, no change, no run, no noise seen."""
+    st[0] = math.nan
+    st[1] = 0.0
+    st[2] = 0.0
+    st[3] = 0.0
+
+
+@njit(cache=True)
 def stuck_step(st, min_repeats, value):
     """One sample through the stuck rule of :class:`StuckDetector`, its state in ``st`` (:data:`STUCK_STATE`
     entries, the first NaN at the start): ``value``, or NaN while the channel is stuck. Compiled, so the
@@ -56,10 +65,20 @@ def stuck_step(st, min_repeats, value):
     return value
 
 
-_stuck_step_py = getattr(stuck_step, "py_func", stuck_step)  # the plain function where numba is missing
+# the plain functions (where numba is missing, the functions themselves): the classes below run them on a list
+_stuck_step_py = getattr(stuck_step, "py_func", stuck_step)
+_stuck_reset_py = getattr(stuck_reset, "py_func", stuck_reset)
 
 JUMP_STATE = 3
 """Length of :func:`jump_step`'s state: the last accepted value, the held-back one, the mean |change|."""
+
+
+@njit(cache=True)
+def jump_reset(st):
+    """:func:`jump_step`'s state at the start: nothing accepted, nothing held back, no noise seen."""
+    st[0] = math.nan
+    st[1] = math.nan
+    st[2] = 0.0
 
 
 @njit(cache=True)
@@ -83,6 +102,7 @@ def jump_step(st, max_jump, noise_factor, value):
 
 
 _jump_step_py = getattr(jump_step, "py_func", jump_step)
+_jump_reset_py = getattr(jump_reset, "py_func", jump_reset)
 
 
 class JumpGate:
@@ -110,7 +130,8 @@ class JumpGate:
         self.reset()
 
     def reset(self) -> None:
-        self._st = [math.nan, math.nan, 0.0]
+        self._st = [0.0] * JUMP_STATE
+        _jump_reset_py(self._st)
         self.n_held = 0
 
     def __call__(self, value: float) -> float:
@@ -147,7 +168,8 @@ class StuckDetector:
         self.reset()
 
     def reset(self) -> None:
-        self._st = [math.nan] + [0.0] * (STUCK_STATE - 1)
+        self._st = [0.0] * STUCK_STATE
+        _stuck_reset_py(self._st)
         self.n_stuck = 0
 
     @property
@@ -165,4 +187,5 @@ class StuckDetector:
         return out
 
 
-__all__ = ["JUMP_STATE", "JumpGate", "STUCK_STATE", "StuckDetector", "jump_step", "stuck_step"]
+__all__ = ["JUMP_STATE", "JumpGate", "STUCK_STATE", "StuckDetector", "jump_reset", "jump_step", "stuck_reset",
+           "stuck_step"]

@@ -5,7 +5,7 @@ Usage::
     python scripts/fault_recovery.py [--estimators mmae aupf ...]
     python scripts/fault_recovery.py --estimators dffrls-aekf fused --seeds 0-7 [--against-truth]
 
-Replays :func:`estimators.fault_injection.seven_channel_rows` (40 s, 26 t, varying grade; noise seed 3, the test's)
+Replays :func:`estimators.fault_injection.seven_channel_run` (40 s, 26 t, varying grade; noise seed 3, the test's)
 clean and with each fault of :mod:`estimators.fault_injection` from 10 s to 13 s, and prints, per estimator and
 fault, the mean absolute difference of every declared output from the clean run over 25-40 s (mass in kg, slope in
 degrees, slip ratio, radius in mm). Options as the test's (``RECOVERY_OPTIONS``: ``mmae`` with ``rear_offset_m=0``,
@@ -27,8 +27,7 @@ import numpy as np
 
 import estimators
 from estimators.fault_injection import (FAULTS, RECOVERY_BOUNDS, RECOVERY_MASS_KG, RECOVERY_OPTIONS, inject,
-                                       run_outputs, seven_channel_rows)
-from uuom_core.synthetic import synthetic_trace
+                                       run_outputs, seven_channel_run)
 
 SCALE = {"mass": (1.0, "kg"), "slope": (math.degrees(1.0), "deg"), "slip_ratio": (1.0, ""),
          "drive_radius_m": (1e3, "mm")}
@@ -49,11 +48,10 @@ def _seeds(text: str) -> list[int]:
 def recovery(name: str, seed: int, against_truth: bool) -> dict[str, list[float | None]]:
     """Per declared output, one value per fault (see the module docstring); NaN where an output went non-finite, None
     where ``against_truth`` has no truth for it."""
-    rows = seven_channel_rows(MASS_KG, DURATION_S, DT, seed=seed)
+    rows, slope_rad = seven_channel_run(MASS_KG, DURATION_S, DT, seed=seed)
     truth = {"mass": np.full(len(rows), MASS_KG)}
     if against_truth:
-        truth["slope"] = np.radians(synthetic_trace("varying", seed=seed, mass_kg=MASS_KG, duration_s=DURATION_S,
-                                                    dt_s=DT)["slope_deg"])
+        truth["slope"] = slope_rad
     start, stop, scored = int(10.0 / DT), int(13.0 / DT), slice(int(25.0 / DT), None)
     opts = RECOVERY_OPTIONS.get(name, {})
     clean = run_outputs(name, rows, **opts)

@@ -220,7 +220,7 @@ class DFFRLSAEKFConfig:
         the point-mass fault trace's ±4 m/s² spikes pass the plausibility gate (3 m/s² band). Over ten sensor seeds of
         that trace, accelerometer spikes alone cost median 1.44 → 3.92 % of mass max error, nothing with the gate
         (``scripts/fault_breakdown.py``); the whole trace 5.06 / 9.3 → 1.37 / 3.6 % (median / max) with both jump
-        gates and ``fill_missing_speed``; every fault-free run unchanged
+        gates and ``fill_missing_speed``; fault-free runs unchanged but for a real 1.24 m/s² jump on one plant run
         (``results/estimation/jump_gates_session24.txt``). The env turns both gates off on its fault-free sensors
         (``FAULT_FREE_SENSOR_OPTIONS``).
     torque_jump_fraction : float

@@ -11,10 +11,10 @@ filters already handle: predict without correcting.
   the next sample is near it (within ``max_jump``) the new level is real (a step of the drive command) and is
   accepted; when the next sample is back near the old level, the held one was a spike. A real step thus costs one
   sample; a one-sample spike is never used. With ``noise_factor`` the threshold grows to that many times the
-  channel's recent mean sample-to-sample change, so a sensor noisier than expected is not cut to pieces. Its older relative :class:`~estimators.filters.SpikeGate` (the
-  regression front end, ``sf-kf``) bounds the rate of change instead and re-locks after a count of rejections
-  whatever the value; the torque of the env and of a PI driver steps within one sample, so ``mmae`` needs the
-  confirmation by the next sample, not a rate.
+  channel's recent mean sample-to-sample change, so a sensor noisier than expected is not cut to pieces. Its older
+  relative :class:`~estimators.filters.SpikeGate` (the regression front end, ``sf-kf``) bounds the rate of change
+  instead and re-locks after a count of rejections whatever the value; the torque of the env and of a PI driver
+  steps within one sample, so ``mmae`` and ``dffrls-aekf`` need the confirmation by the next sample, not a rate.
 * :class:`StuckDetector`: a channel whose noise makes consecutive samples differ (the accelerometer: noise,
   vibration of the load, quantisation finer than the noise) and that repeats one value ``min_repeats`` times in a
   row is frozen; its samples count as missing until the value changes. Only a channel that has shown its noise is

@@ -40,7 +40,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
     EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
     CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
-    T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED,
+    T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .input_faults import JUMP_STATE, STUCK_STATE, jump_reset, jump_step, stuck_reset, stuck_step

@@ -43,7 +43,7 @@ __all__ = ["FusedObserver", "FUSED_DEFAULTS"]
 
 FUSED_DEFAULTS = DFFRLSAEKFConfig(fused=True, offset_forgetting_ratio=0.05, train_length_m=14.0,
                                   max_geometry_ambiguity_rad=0.002, grade_curvature_std=0.0, min_accel_mps2=0.05,
-                                  braking_samples=False)
+                                  braking_samples=False, fused_spread_gate=True)
 """The ``fused`` settings: ``dffrls-aekf``'s with a 14 m window and the learned blend, and the offset forgotten 20x
 slower than the dynamic factor asks (so a grade change is explained by the blend, not soaked up by the offset). Chosen on
 plant runs 1000-1015 among offset ratios 0.01-1 and windows 12 / 14 / 18.1 m (12 m: median slope 0.54° but 90th
@@ -56,7 +56,10 @@ session 22): on plant tuning runs 1000-1199 0.03 gave median / p90 / p95 mass ma
 6.23 / 20.47 / 26.82 % (a wash) and 0 34.2 % at p95. Traction samples only (``braking_samples=False``; ``dffrls-aekf``
 learns from measured electric braking too since session 23): on point-mass runs 1000-1059 braking samples moved the
 median mass max error 5.00 → 5.66 % (p95 20.0 → 18.2 %, slope better): with no spread gate, the regression reads the
-slope layer's lag on vertical curves braked through as mass (the plant never brakes with its motors: no change there)."""
+slope layer's lag on vertical curves braked through as mass (the plant never brakes with its motors: no change there).
+Since session 24 the mass holds on grade changes within the window (``fused_spread_gate``: the mass, not the offset or
+the blend, becomes a considered parameter there): plant tuning runs unchanged (median 6.50 → 6.47 %), point-mass runs
+1000-1059 median / p90 5.00 / 15.44 → 3.76 / 11.55 %."""
 
 
 class FusedObserver(DFFRLSAEKF):

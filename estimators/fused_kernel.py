@@ -9,7 +9,7 @@ from uuom_core.vehicle import G_MPS2
 
 from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MAX_AMBIG, MB, MC, MD, MIN_ACC, MU_MAX,
                                  N_MASS, OFF_FORGET, P0_B, P0_C, P0_D, PB, PC, PCB, PCD, PD, PDB, PROJECT_CLAMP, Q_C,
-                                 R_M, RES_VAR, SIGMA)
+                                 R_M, RES_VAR, SIGMA, FUSED_SPREAD, MAX_SPREAD, SPREAD)
 from .numba_shim import njit
 
 __all__ = ["fused_mass_step"]
@@ -59,8 +59,10 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
         return
     # c only from accelerations, and not while the blend is too uncertain for the slope gravity acts on: std(alpha)
     # |sin th_loc - sin th_win| above MAX_AMBIG, the fused form of the geometry bank's ambiguity gate (a c learnt
-    # then would absorb the blend's error)
-    consider = abs(a_l) < C[MIN_ACC] or math.sqrt(p33) / c * abs(sin_loc - sin_win) > C[MAX_AMBIG]
+    # then would absorb the blend's error); nor (FUSED_SPREAD) on a grade change within the window, where the slope
+    # layer's lag is read as mass (dffrls-aekf's spread gate, here for c alone: o and beta learn on)
+    consider = abs(a_l) < C[MIN_ACC] or math.sqrt(p33) / c * abs(sin_loc - sin_win) > C[MAX_AMBIG] or (
+        C[FUSED_SPREAD] != 0.0 and not S[SPREAD] < C[MAX_SPREAD])
     if not consider:
         c += q1 / s_m * e
         p11 -= q1 * q1 / s_m

@@ -61,6 +61,7 @@ VARIANTS: list[tuple[str, str, dict]] = [
     ("dffrls-aekf-paper (as printed)", "dffrls-aekf-paper", {}),
     ("dffrls-aekf-paper without noise means", "dffrls-aekf-paper", {"adapt_means": False}),
     ("fused", "fused", {}),
+    ("fused without the spread gate on its mass (as before session 24)", "fused", {"fused_spread_gate": False}),
 ]
 
 

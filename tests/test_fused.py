@@ -87,4 +87,7 @@ def test_blend_gate_holds_the_mass_while_the_blend_is_uncertain() -> None:
         clean = run_outputs("fused", rows, **options)["mass"][scored]
         return float(np.mean(np.abs(run_outputs("fused", bad, **options)["mass"][scored] - clean)))
 
-    assert drift() < 520.0 < drift(max_geometry_ambiguity_rad=math.inf)
+    # measured with the mass learning on grade changes, as in session 10; since session 24 the spread gate on the
+    # mass (fused_spread_gate) holds it there too, so either gate alone keeps the restart's transient out
+    assert drift() < 520.0 < drift(max_geometry_ambiguity_rad=math.inf, fused_spread_gate=False)
+    assert drift(max_geometry_ambiguity_rad=math.inf) < 520.0

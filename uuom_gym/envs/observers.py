@@ -59,14 +59,19 @@ _GRADE_OPTION_NAMES = frozenset({"grade_curvature_std", "prior_curvature_std_per
 
 PLANT_MASS_GATE_OPTIONS: dict[str, dict[str, Any]] = {
     "dffrls-aekf": {"min_accel_mps2": 0.05},
+    "fused": {"fused_spread_gate": False},
 }
 """The acceleration below which ``dffrls-aekf`` in the env holds its mass, unless the observer options say otherwise:
 0.05 m/s², the value every RL table was computed with. Offline the default is 0.03 since round 2, session 22, with
 the point member learning at constant speed too (chosen on the plant's tuning runs for the two-member bank); for the
 env's configuration (one 12 m filter, one pendulum, two slope states) 0.03 is neutral on the same runs (median / p95
-mass max error 10.13 / 33.67 → 10.49 / 33.08 %, docs/estimation.md), so the env keeps its episodes."""
+mass max error 10.13 / 33.67 → 10.49 / 33.08 %, docs/estimation.md), so the env keeps its episodes. Likewise
+``fused`` in the env learns its mass on grade changes as every RL table's ``fused`` rows were computed with; offline
+it holds it there since session 24 (``fused_spread_gate``: neutral on the plant's tuning runs, a gain on the
+point-mass world)."""
 
-_MASS_GATE_OPTION_NAMES = frozenset({"min_accel_mps2", "point_min_accel_mps2", "weak_accel_noise_factor"})
+_MASS_GATE_OPTION_NAMES = frozenset({"min_accel_mps2", "point_min_accel_mps2", "weak_accel_noise_factor",
+                                     "fused_spread_gate"})
 
 FAULT_FREE_SENSOR_OPTIONS: dict[str, dict[str, Any]] = {
     "mmae": {"torque_jump_fraction": 0.0, "stuck_repeats": 0},

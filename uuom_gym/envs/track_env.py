@@ -205,7 +205,8 @@ class UUOMTrackEnv(gym.Env):
     * v0 (rev. 13, no id change, behaviour unchanged): the registered ``dffrls-aekf`` and ``fused`` hold back a
       one-sample torque or accelerometer spike (jump gates, off on the env's fault-free sensors:
       ``observers.FAULT_FREE_SENSOR_OPTIONS``) and fill a missing speed sample with their predicted speed; the env's
-      fault-free sensors have neither spikes nor missing samples, so episodes are identical.
+      fault-free sensors have neither spikes nor missing samples, so episodes are identical. ``fused`` offline holds
+      its mass on grade changes (``fused_spread_gate``); the env keeps it off (``observers.PLANT_MASS_GATE_OPTIONS``).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

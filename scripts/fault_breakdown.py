@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from estimators.metrics import error_after_settling
 from estimators.registry import get_class
 from uuom_core.trace import Trace
 from uuom_gym.sim.point_mass import (SENSOR_CHANNELS, PointMassFaults, point_mass_scenario, simulate_point_mass,
@@ -89,10 +90,8 @@ def _score_protocol_fault(job: tuple[Any, list[list[Any]]]) -> tuple[str, list[f
     rmse: dict[bool, list[float]] = {}
     for faulty in (False, True):
         tr = make_run(spec if faulty else replace(spec, fault=""))
-        k = tr["t_s"] >= 10.0
-        m = tr["mass_kg"][k]
-        rmse[faulty] = [100.0 * float(np.sqrt(np.mean((get_class(est)(**options).run(tr).mass_kg[k] - m) ** 2))
-                                      / np.mean(m)) for _, est, options in configs]
+        rmse[faulty] = [error_after_settling(tr["t_s"], get_class(est)(**options).run(tr).mass_kg, tr["mass_kg"],
+                                             10.0, relative=True).rmse for _, est, options in configs]
     return spec.name, rmse[False], rmse[True]
 
 

@@ -373,6 +373,13 @@ def test_curvature_state_follows_a_vertical_curve_and_keeps_its_covariance_pd(fa
     assert abs(est.S[kern.KAP]) <= est.config.max_curvature_per_m
 
 
+def _worst_mass_error(tr, name: str = "dffrls-aekf", **options) -> float:
+    """Max |relative mass error| after 10 s of estimator ``name`` with ``options`` on ``tr``."""
+    k = tr["t_s"] >= 10.0
+    s = estimators.make(name, **options).run(tr)
+    return float(np.max(np.abs(s.mass_kg[k] / tr["mass_kg"][k] - 1.0)))
+
+
 def test_a_frozen_accelerometer_is_dropped() -> None:
     """pm-sensor-faults, sensor seed 1: the accelerometer freezes for 3 s at 30 s; without the detector the geometry
     bank's weights turn to the 12 m window and its mass takes the next deceleration (measured 17.8 % max error after
@@ -380,20 +387,10 @@ def test_a_frozen_accelerometer_is_dropped() -> None:
     from uuom_gym.sim.point_mass import simulate_point_mass
 
     tr = simulate_point_mass("pm-sensor-faults", seed=1)
-    k = tr["t_s"] >= 10.0
-    worst = {}
-    for n in (0, 20):
-        s = estimators.make("dffrls-aekf", stuck_repeats=n).run(tr)
-        worst[n] = float(np.max(np.abs(s.mass_kg[k] / tr["mass_kg"][k] - 1.0)))
+    worst = {n: _worst_mass_error(tr, stuck_repeats=n) for n in (0, 20)}
     assert worst[20] < 0.06 < 0.10 < worst[0]
     with pytest.raises(ValueError, match="stuck_repeats"):
         estimators.make("dffrls-aekf", stuck_repeats=-1)
-
-
-def _worst_mass_error(tr, **options) -> float:
-    k = tr["t_s"] >= 10.0
-    s = estimators.make("dffrls-aekf", **options).run(tr)
-    return float(np.max(np.abs(s.mass_kg[k] / tr["mass_kg"][k] - 1.0)))
 
 
 def test_accelerometer_spikes_are_held_back_by_the_jump_gate() -> None:
@@ -451,11 +448,7 @@ def test_fused_holds_its_mass_on_a_grade_change() -> None:
     from uuom_gym.sim.point_mass import simulate_point_mass
 
     tr = simulate_point_mass("pm-roadtest", seed=0)
-    k = tr["t_s"] >= 10.0
-    worst = {}
-    for gate in (False, True):
-        m = estimators.make("fused", fused_spread_gate=gate).run(tr).mass_kg[k]
-        worst[gate] = float(np.max(np.abs(m / tr["mass_kg"][k] - 1.0)))
+    worst = {gate: _worst_mass_error(tr, "fused", fused_spread_gate=gate) for gate in (False, True)}
     assert worst[True] < 0.05 < 0.07 < worst[False]
 
 
@@ -475,3 +468,5 @@ def test_env_tells_its_observers_their_sensors_have_no_faults() -> None:
         assert cfg.stuck_repeats == 20 and cfg.accel_jump_mps2 == 0.5 and cfg.torque_jump_fraction == 0.15
     assert estimators.make("fused").config.fused_spread_gate  # offline; the env keeps the mass it was trained with
     assert not gym.make("UUOM-Track-v0", observer="fused").unwrapped.observer.estimator.config.fused_spread_gate
+    other_gate = gym.make("UUOM-Track-v0", observer="fused", observer_options={"min_accel_mps2": 0.04})
+    assert not other_gate.unwrapped.observer.estimator.config.fused_spread_gate  # a mass-gate option of its own

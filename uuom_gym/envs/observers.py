@@ -70,8 +70,12 @@ mass max error 10.13 / 33.67 → 10.49 / 33.08 %, docs/estimation.md), so the en
 it holds it there since session 24 (``fused_spread_gate``: neutral on the plant's tuning runs, a gain on the
 point-mass world)."""
 
-_MASS_GATE_OPTION_NAMES = frozenset({"min_accel_mps2", "point_min_accel_mps2", "weak_accel_noise_factor",
-                                     "fused_spread_gate"})
+_MASS_GATE_OPTION_NAMES: dict[str, frozenset[str]] = {
+    "dffrls-aekf": frozenset({"min_accel_mps2", "point_min_accel_mps2", "weak_accel_noise_factor"}),
+    "fused": frozenset({"fused_spread_gate"}),
+}
+"""Options that state the mass gate themselves: given any of them, the plant's entry above is not added (per
+estimator, so a ``fused`` user's ``min_accel_mps2`` does not turn its spread gate on)."""
 
 FAULT_FREE_SENSOR_OPTIONS: dict[str, dict[str, Any]] = {
     "mmae": {"torque_jump_fraction": 0.0, "stuck_repeats": 0},
@@ -230,7 +234,8 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
                              _GEOMETRY_OPTION_NAMES.get(name, frozenset()))
     options = _unless_stated(options, PLANT_SWING_OPTIONS.get(name, {}), _SWING_OPTION_NAMES)
     options = _unless_stated(options, PLANT_GRADE_OPTIONS.get(name, {}), _GRADE_OPTION_NAMES)
-    options = _unless_stated(options, PLANT_MASS_GATE_OPTIONS.get(name, {}), _MASS_GATE_OPTION_NAMES)
+    options = _unless_stated(options, PLANT_MASS_GATE_OPTIONS.get(name, {}),
+                             _MASS_GATE_OPTION_NAMES.get(name, frozenset()))
     if fault_free_sensors:
         fault_free = FAULT_FREE_SENSOR_OPTIONS.get(name, {})
         options = _unless_stated(options, fault_free, frozenset(fault_free))

@@ -250,6 +250,18 @@ class DFFRLSAEKFConfig:
         climb). Plant tuning runs 1000-1199 mass max error median 6.50 → 6.47 %, p90 / p95 / max unchanged; point-mass
         runs 1000-1059 median / p90 5.00 / 15.44 → 3.76 / 11.55 %; the eight point-mass scenarios over ten sensor
         seeds 3.92 / 8.64 → 2.36 / 5.41 % (``results/estimation/fused_spread_gate_session24.txt``).
+    blend_from_start : bool
+        ``fused`` only (default True since session 25): the blend α (the weight of the slope under the sensors in the
+        slope gravity acts on) learns from the first metre moved, while the slope window still holds part of its
+        start-up guess. False: only once the window holds measured slopes alone (sessions 1-24), which left α at its
+        prior for the first 12 m and the slope output half the window's lagging average on every start-up. Plant
+        tuning runs 1000-1199 (``fused``, False / True): slope RMSE median / p95 0.55 / 1.35 → 0.29 / 1.34°, mass max
+        error median / p90 / p95 6.47 / 19.48 / 26.63 → 6.49 / 19.41 / 25.90 %; point-mass runs 1000-1059 slope 0.38 /
+        2.32 → 0.14 / 0.38°, mass 3.76 / 11.55 / 18.24 → 4.06 / 15.50 / 20.33 % (worse: the mass's ambiguity gate,
+        which reads the blend's variance, opens earlier); the eight point-mass scenarios over ten sensor seeds mass
+        median / p95 2.36 / 7.93 → 2.19 / 7.60 %, slope p95 0.46 → 0.22° (``results/estimation/blend_from_start_session25.txt``).
+        Counting the early samples 10 or 100 times noisier was measured too and lost on the plant's slope p95
+        (1.50 / 1.48°). The env keeps False (``uuom_gym.envs.observers.PLANT_BLEND_OPTIONS``).
     prior_curvature_std_per_m : float
         Prior (and cap) of the curvature's standard deviation (rad/m; 0.01: 6° of grade change over 10 m).
     max_curvature_per_m : float
@@ -309,6 +321,7 @@ class DFFRLSAEKFConfig:
     jump_noise_factor: float = 8.0
     fill_missing_speed: bool = True
     fused_spread_gate: bool = False
+    blend_from_start: bool = True
     settle_s: float = 1.0
     slope_ready_std_rad: float = math.radians(1.0)
     gap_s: float = MAX_STEP_S
@@ -423,6 +436,7 @@ class DFFRLSAEKFConfig:
         C[kern.JUMP_NOISE] = self.jump_noise_factor
         C[kern.FILL_SPEED] = float(bool(self.fill_missing_speed))
         C[kern.FUSED_SPREAD] = float(bool(self.fused_spread_gate))
+        C[kern.BLEND_EARLY] = float(bool(self.blend_from_start))
         C[kern.SETTLE_S] = self.settle_s
         # torque may step with the driver's command; speed may not jump (a <= ~3 m/s^2); specific force <= 3 g
         C[kern.T_MAX], C[kern.T_RATE], C[kern.T_BAND] = 3.0 * max_torque, 50.0 * max_torque, 0.5 * max_torque

@@ -84,7 +84,8 @@ F_JUMP = 75  # the same for the accelerometer (m/s^2); both thresholds grow with
 JUMP_NOISE = 76
 FILL_SPEED = 77  # 1: a missing speed sample enters the regression's filters as the slope layer's predicted speed
 FUSED_SPREAD = 78  # fused: 1 = the mass (not the offset or blend) is a considered parameter while SPREAD > MAX_SPREAD
-CHAIN_SET = 79  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+BLEND_EARLY = 79  # fused: 1 = the blend learns from the first metre moved (0: once the window holds measured slopes)
+CHAIN_SET = 80  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8

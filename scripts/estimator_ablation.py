@@ -62,6 +62,8 @@ VARIANTS: list[tuple[str, str, dict]] = [
     ("dffrls-aekf-paper without noise means", "dffrls-aekf-paper", {"adapt_means": False}),
     ("fused", "fused", {}),
     ("fused without the spread gate on its mass (as before session 24)", "fused", {"fused_spread_gate": False}),
+    ("fused, its blend learnt only once the window holds measured slopes (as before session 25)", "fused",
+     {"blend_from_start": False}),
 ]
 
 

@@ -470,3 +470,7 @@ def test_env_tells_its_observers_their_sensors_have_no_faults() -> None:
     assert not gym.make("UUOM-Track-v0", observer="fused").unwrapped.observer.estimator.config.fused_spread_gate
     other_gate = gym.make("UUOM-Track-v0", observer="fused", observer_options={"min_accel_mps2": 0.04})
     assert not other_gate.unwrapped.observer.estimator.config.fused_spread_gate  # a mass-gate option of its own
+    # the blend as the RL tables' fused rows had it (PLANT_BLEND_OPTIONS), unless the observer options say otherwise
+    assert not gym.make("UUOM-Track-v0", observer="fused").unwrapped.observer.estimator.config.blend_from_start
+    stated = gym.make("UUOM-Track-v0", observer="fused", observer_options={"blend_from_start": True})
+    assert stated.unwrapped.observer.estimator.config.blend_from_start

@@ -77,6 +77,11 @@ _MASS_GATE_OPTION_NAMES: dict[str, frozenset[str]] = {
 """Options that state the mass gate themselves: given any of them, the plant's entry above is not added (per
 estimator, so a ``fused`` user's ``min_accel_mps2`` does not turn its spread gate on)."""
 
+PLANT_BLEND_OPTIONS: dict[str, dict[str, Any]] = {"fused": {"blend_from_start": False}}
+"""``fused`` in the env learns its gravity blend only once its slope window holds measured slopes, as every RL
+table's ``fused`` rows were computed with; offline the blend learns from the first metre moved since round 2,
+session 25 (``blend_from_start``: the plant's tuning runs' slope RMSE median 0.55 -> 0.29 deg)."""
+
 FAULT_FREE_SENSOR_OPTIONS: dict[str, dict[str, Any]] = {
     "mmae": {"torque_jump_fraction": 0.0, "stuck_repeats": 0},
     "dffrls-aekf": {"stuck_repeats": 0, "torque_jump_fraction": 0.0, "accel_jump_mps2": 0.0},
@@ -205,7 +210,7 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
 
     The env's plant adds what it knows about itself to the estimator's options: its geometry
     (:data:`PLANT_GEOMETRY_OPTIONS`), its load's chains (:data:`PLANT_SWING_OPTIONS`), its grade model
-    (:data:`PLANT_GRADE_OPTIONS`), its mass gate (:data:`PLANT_MASS_GATE_OPTIONS`) and, with
+    (:data:`PLANT_GRADE_OPTIONS`), its mass gate (:data:`PLANT_MASS_GATE_OPTIONS`), ``fused``'s blend (:data:`PLANT_BLEND_OPTIONS`) and, with
     ``fault_free_sensors``, that no sensor spikes or freezes (:data:`FAULT_FREE_SENSOR_OPTIONS`); options given by
     name take precedence.
 
@@ -236,6 +241,7 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
     options = _unless_stated(options, PLANT_GRADE_OPTIONS.get(name, {}), _GRADE_OPTION_NAMES)
     options = _unless_stated(options, PLANT_MASS_GATE_OPTIONS.get(name, {}),
                              _MASS_GATE_OPTION_NAMES.get(name, frozenset()))
+    options = _unless_stated(options, PLANT_BLEND_OPTIONS.get(name, {}), frozenset({"blend_from_start"}))
     if fault_free_sensors:
         fault_free = FAULT_FREE_SENSOR_OPTIONS.get(name, {})
         options = _unless_stated(options, fault_free, frozenset(fault_free))

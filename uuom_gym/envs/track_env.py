@@ -207,6 +207,9 @@ class UUOMTrackEnv(gym.Env):
       ``observers.FAULT_FREE_SENSOR_OPTIONS``) and fill a missing speed sample with their predicted speed; the env's
       fault-free sensors have neither spikes nor missing samples, so episodes are identical. ``fused`` offline holds
       its mass on grade changes (``fused_spread_gate``); the env keeps it off (``observers.PLANT_MASS_GATE_OPTIONS``).
+    * v0 (rev. 14, no id change, behaviour unchanged): the registered ``fused`` learns its gravity blend from the first
+      metre moved (``blend_from_start``); the env keeps the late rule its RL rows were computed with
+      (``observers.PLANT_BLEND_OPTIONS``), so episodes are identical.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -259,9 +259,21 @@ class DFFRLSAEKFConfig:
         error median / p90 / p95 6.47 / 19.48 / 26.63 → 6.49 / 19.41 / 25.90 %; point-mass runs 1000-1059 slope 0.38 /
         2.32 → 0.14 / 0.38°, mass 3.76 / 11.55 / 18.24 → 4.06 / 15.50 / 20.33 % (worse: the mass's ambiguity gate,
         which reads the blend's variance, opens earlier); the eight point-mass scenarios over ten sensor seeds mass
-        median / p95 2.36 / 7.93 → 2.19 / 7.60 %, slope p95 0.46 → 0.22° (``results/estimation/blend_from_start_session25.txt``).
+        median / p95 2.36 / 7.93 → 2.19 / 7.60 %, slope p95 0.46 → 0.22°
+        (``results/estimation/blend_from_start_session25.txt``).
         Counting the early samples 10 or 100 times noisier was measured too and lost on the plant's slope p95
         (1.50 / 1.48°). The env keeps False (``uuom_gym.envs.observers.PLANT_BLEND_OPTIONS``).
+    early_blend_kept : float
+        ``fused`` with ``blend_from_start``: when the slope window first holds measured slopes only, α keeps this share
+        of what it moved from its prior (0.5) while the window held its start-up guess, and its variance goes back to
+        the prior: the early evidence leans the blend, the later one decides (the geometry bank's early-evidence rule,
+        for a continuous weight). A train that starts across a crest fits the guess badly (plant run 1057: α 0.3 →
+        1.0 in 3 s at the head of a descent, after which no sample with a measured drive force comes). 0.5, chosen
+        on plant tuning runs 1000-1199 against the whole early move kept without a reset / 0.5 / 0 (slope RMSE median
+        / p90 / p95 / p98 / max 0.29 / 0.92 / 1.34 / 2.17 / 2.73, 0.29 / 0.86 / 1.21 / 2.10 / 2.48, 0.31 / 1.01 / 1.33
+        / 1.92 / 2.29°; 1 with the variance reset: median / p95 0.28 / 1.34°; the mass the same in all);
+        point-mass runs 1000-1059 slope median / p95 0.14 / 0.39 → 0.15 / 0.68°, mass p90 15.5 → 14.1 %
+        (docs/estimation.md, session 25).
     prior_curvature_std_per_m : float
         Prior (and cap) of the curvature's standard deviation (rad/m; 0.01: 6° of grade change over 10 m).
     max_curvature_per_m : float
@@ -322,6 +334,7 @@ class DFFRLSAEKFConfig:
     fill_missing_speed: bool = True
     fused_spread_gate: bool = False
     blend_from_start: bool = True
+    early_blend_kept: float = 0.5
     settle_s: float = 1.0
     slope_ready_std_rad: float = math.radians(1.0)
     gap_s: float = MAX_STEP_S
@@ -344,7 +357,7 @@ class DFFRLSAEKFConfig:
                         "min_accel_mps2", "offset_forgetting_ratio", "accel_bias_std_mps2",
                         "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after", "max_early_evidence",
                         "grade_curvature_std", "weak_accel_noise_factor", "torque_jump_fraction", "accel_jump_mps2",
-                        "jump_noise_factor")
+                        "jump_noise_factor", "early_blend_kept")
         if self.point_min_accel_mps2 is not None:  # None: the common gate
             non_negative += ("point_min_accel_mps2",)
         for name in positive + non_negative:
@@ -361,6 +374,8 @@ class DFFRLSAEKFConfig:
             raise ValueError(
                 f"dffrls-aekf: mass_forgetting_ratio must be in [0, 1], got {self.mass_forgetting_ratio!r}")
         check_int_option("dffrls-aekf: stuck_repeats", self.stuck_repeats, ValueError, minimum=0)
+        if not (0.0 <= self.early_blend_kept <= 1.0):  # NaN fails too
+            raise ValueError(f"dffrls-aekf: early_blend_kept must be in [0, 1], got {self.early_blend_kept!r}")
         if not self.weak_accel_noise_factor >= 1.0:
             raise ValueError(f"dffrls-aekf: weak_accel_noise_factor must be >= 1, got {self.weak_accel_noise_factor!r}")
         mu0 = v.running_resistance if self.running_resistance is None else float(self.running_resistance)
@@ -437,6 +452,7 @@ class DFFRLSAEKFConfig:
         C[kern.FILL_SPEED] = float(bool(self.fill_missing_speed))
         C[kern.FUSED_SPREAD] = float(bool(self.fused_spread_gate))
         C[kern.BLEND_EARLY] = float(bool(self.blend_from_start))
+        C[kern.EARLY_KEPT] = float(self.early_blend_kept)
         C[kern.SETTLE_S] = self.settle_s
         # torque may step with the driver's command; speed may not jump (a <= ~3 m/s^2); specific force <= 3 g
         C[kern.T_MAX], C[kern.T_RATE], C[kern.T_BAND] = 3.0 * max_torque, 50.0 * max_torque, 0.5 * max_torque

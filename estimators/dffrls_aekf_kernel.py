@@ -40,7 +40,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
     EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
     CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
-    T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY,
+    T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .input_faults import JUMP_STATE, STUCK_STATE, jump_reset, jump_step, stuck_reset, stuck_step
@@ -378,6 +378,17 @@ def step(S, H, C, torque, speed, accel, dt):
     else:
         S[TH_WIN] = th
         S[SPREAD] = 0.0
+    if C[FUSED] != 0.0 and C[BLEND_EARLY] != 0.0 and S[B_MEASURED] == 0.0 and S[MOVED] != 0.0 and (
+            S[DIST] - S[DIST0] > C[N_HIST] * C[HIST_DS]):
+        # the window holds measured slopes only for the first time: what alpha learnt while it held the start-up guess
+        # (a train that starts across a crest fits that guess badly: plant run 1057, alpha 0.3 -> 1.0 in 3 s) keeps
+        # only a lean; checked on every sample, since on a descent no sample may reach the regression again
+        S[B_MEASURED] = 1.0
+        b0 = 0.5 * S[MC]
+        S[MB] = b0 + C[EARLY_KEPT] * (S[MB] - b0)
+        S[PB] = max(S[PB], C[P0_B])
+        S[PCB] = 0.0
+        S[PDB] = 0.0
     if C[FUSED] != 0.0:
         # fused: the slope gravity acts on is a blend of the slope under the sensors and the window behind them,
         # with the weight alpha = beta / c learned from the force balance (1 for a point mass)

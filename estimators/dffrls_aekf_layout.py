@@ -85,7 +85,9 @@ JUMP_NOISE = 76
 FILL_SPEED = 77  # 1: a missing speed sample enters the regression's filters as the slope layer's predicted speed
 FUSED_SPREAD = 78  # fused: 1 = the mass (not the offset or blend) is a considered parameter while SPREAD > MAX_SPREAD
 BLEND_EARLY = 79  # fused: 1 = the blend learns from the first metre moved (0: once the window holds measured slopes)
-CHAIN_SET = 80  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+EARLY_KEPT = 80  # fused with BLEND_EARLY: the share of alpha's early deviation from its prior kept once the window
+#   first holds measured slopes only (its variance then back to the prior: the early evidence leans, the later decides)
+CHAIN_SET = 81  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8
@@ -175,7 +177,8 @@ P33 = 80
 STUCK_ST = 81  # the accelerometer's stuck detector (estimators.input_faults.stuck_step; STUCK_STATE = 4 slots)
 T_JUMP_ST = 85  # the torque's and the accelerometer's jump gates (estimators.input_faults.jump_step; 3 slots each)
 F_JUMP_ST = 88
-CHAIN_ST = 91  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
+B_MEASURED = 91  # fused: 1 once the slope window has held measured slopes only (EARLY_KEPT applied)
+CHAIN_ST = 92  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
 #   low-pass of its load acceleration (3 slots), that acceleration, its force-balance evidence (negative log-lik.)
 CHAIN_ST_W = 7
 N_S = CHAIN_ST + CHAIN_ST_W * MAX_CHAINS

@@ -16,9 +16,10 @@ differs in the force balance, which here fuses all on-board signals in one regre
   mean slope ``θ_win`` over ``train_length_m`` (14 m) behind the sensors.
   A point mass has ``α = 1``; on the project's plant (drive section at the front, payload 9 m behind) it is learned
   at about 0.3 (median over 40 random runs; 5-95 % 0.0-0.74). α is learned at grade changes at steady speed, where
-  the two slopes differ, from the first metre moved (prior 0.5 ± 0.5; until session 25 only once the window held
-  slopes measured on the way, which left the slope output half a lagging window for the first 12 m:
-  ``blend_from_start``).
+  the two slopes differ, from the first metre moved (prior 0.5 ± 0.5); once the window first holds slopes measured
+  on the way, α keeps half of what it learnt before (``early_blend_kept``: the start-up guess in the window can
+  mislead it). Until session 25 α learnt only from then on, which left the slope output half a lagging window for
+  the first 14 m (``blend_from_start``).
 - ``a_L``: the acceleration of the load swinging on its chains (a pendulum forced by dv/dt), the swing as a modelled
   disturbance.
 

@@ -210,7 +210,8 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
 
     The env's plant adds what it knows about itself to the estimator's options: its geometry
     (:data:`PLANT_GEOMETRY_OPTIONS`), its load's chains (:data:`PLANT_SWING_OPTIONS`), its grade model
-    (:data:`PLANT_GRADE_OPTIONS`), its mass gate (:data:`PLANT_MASS_GATE_OPTIONS`), ``fused``'s blend (:data:`PLANT_BLEND_OPTIONS`) and, with
+    (:data:`PLANT_GRADE_OPTIONS`), its mass gate (:data:`PLANT_MASS_GATE_OPTIONS`), ``fused``'s blend
+    (:data:`PLANT_BLEND_OPTIONS`) and, with
     ``fault_free_sensors``, that no sensor spikes or freezes (:data:`FAULT_FREE_SENSOR_OPTIONS`); options given by
     name take precedence.
 

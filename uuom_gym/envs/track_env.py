@@ -208,8 +208,8 @@ class UUOMTrackEnv(gym.Env):
       fault-free sensors have neither spikes nor missing samples, so episodes are identical. ``fused`` offline holds
       its mass on grade changes (``fused_spread_gate``); the env keeps it off (``observers.PLANT_MASS_GATE_OPTIONS``).
     * v0 (rev. 14, no id change, behaviour unchanged): the registered ``fused`` learns its gravity blend from the first
-      metre moved (``blend_from_start``); the env keeps the late rule its RL rows were computed with
-      (``observers.PLANT_BLEND_OPTIONS``), so episodes are identical.
+      metre moved (``blend_from_start``, with ``early_blend_kept``); the env keeps the late rule its RL rows were
+      computed with (``observers.PLANT_BLEND_OPTIONS``), so episodes are identical.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -46,6 +46,9 @@ from .fused_kernel import fused_mass_step as _fused_mass_step
 from .input_faults import JUMP_STATE, STUCK_STATE, jump_reset, jump_step, stuck_reset, stuck_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
 
+ALPHA_PRIOR = 0.5
+"""fused: the prior weight of the slope under the sensors in the slope gravity acts on."""
+
 _kf_update = njit(cache=True, inline="always")(filters.kalman_update_2x2_h1)
 _repair = njit(cache=True, inline="always")(filters.repair_pd_2x2)
 _kf_update3 = njit(cache=True, inline="always")(filters.kalman_update_3x3_h1)
@@ -113,7 +116,7 @@ def reset(S, H, C):
     S[PD] = C[P0_D]
     S[RES_VAR] = C[R_M]
     S[LAMBDA] = 1.0
-    S[MB] = 0.5 * c0  # fused: beta = c alpha, alpha = 0.5 (weight of the slope under the sensors) a priori
+    S[MB] = ALPHA_PRIOR * c0  # fused: beta = c alpha
     S[PB] = C[P0_B]
     S[NIS] = 1.0  # its expected value until the first speed correction (an output is never NaN)
     stuck_reset(S[STUCK_ST:STUCK_ST + STUCK_STATE])
@@ -378,13 +381,14 @@ def step(S, H, C, torque, speed, accel, dt):
     else:
         S[TH_WIN] = th
         S[SPREAD] = 0.0
-    if C[FUSED] != 0.0 and C[BLEND_EARLY] != 0.0 and S[B_MEASURED] == 0.0 and S[MOVED] != 0.0 and (
-            S[DIST] - S[DIST0] > C[N_HIST] * C[HIST_DS]):
+    # fused: the slope window holds measured slopes only (not the start-up guess)
+    window_measured = S[MOVED] != 0.0 and S[DIST] - S[DIST0] > C[N_HIST] * C[HIST_DS]
+    if C[FUSED] != 0.0 and C[BLEND_EARLY] != 0.0 and S[B_MEASURED] == 0.0 and window_measured:
         # the window holds measured slopes only for the first time: what alpha learnt while it held the start-up guess
         # (a train that starts across a crest fits that guess badly: plant run 1057, alpha 0.3 -> 1.0 in 3 s) keeps
         # only a lean; checked on every sample, since on a descent no sample may reach the regression again
         S[B_MEASURED] = 1.0
-        b0 = 0.5 * S[MC]
+        b0 = ALPHA_PRIOR * S[MC]
         S[MB] = b0 + C[EARLY_KEPT] * (S[MB] - b0)
         S[PB] = max(S[PB], C[P0_B])
         S[PCB] = 0.0
@@ -496,7 +500,7 @@ def step(S, H, C, torque, speed, accel, dt):
         # start-up guess: waiting for a window of measured slopes only left alpha at its prior for the first 12 m
         # and the slope output half the window's lagging average (plant tuning runs 1000-1199: slope RMSE median
         # 0.55 -> 0.29 deg; point-mass runs 1000-1059 0.38 -> 0.14 deg; docs/estimation.md, session 25)
-        learn_b = S[MOVED] != 0.0 and (C[BLEND_EARLY] != 0.0 or S[DIST] - S[DIST0] > C[N_HIST] * C[HIST_DS])
+        learn_b = S[MOVED] != 0.0 and (C[BLEND_EARLY] != 0.0 or window_measured)
         _fused_mass_step(S, C, y, a_load_f, sin_lp, sin_loc_lp, use_rate, learn_b)
         return
 

@@ -41,6 +41,10 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
     CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
+    SMOOTH_L, SMOOTH_NB, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
+)
+from .fixed_lag_kernel import (
+    R_DS, R_DT, R_F, R_F12, R_FIN, R_FOK, R_LINK, R_PF, R_PP, R_T, R_XF, R_XP, R_XS, R_Z, smooth_ring,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .input_faults import JUMP_STATE, STUCK_STATE, jump_reset, jump_step, stuck_reset, stuck_step
@@ -215,136 +219,16 @@ def _chain_bank_score(S, C, e_mix, a_mix, s_var):
 
 
 @njit(cache=True)
-def step(S, H, C, torque, speed, accel, dt):
-    """Process one sample. Returns nothing; the estimate is read from ``S`` (:func:`estimate`)."""
-    if not (dt > 0.0):  # NaN, 0, negative: a repeated or out-of-order stamp; nothing to integrate
-        return
-    if dt > C[GAP_S]:  # a gap (inf, 1e300 included): restart, then treat the sample as the first after it
-        _restart_signals(S, H)
-        S[P22] = max(S[P22], C[P0_TH])
-        # the curvature of a stretch the train may have moved along unseen: back to its prior, uncorrelated
-        S[KAP] = 0.0
-        S[P13] = 0.0
-        S[P23] = 0.0
-        S[P33] = max(S[P33], C[P0_KAP])
-        S[N_GAPS] += 1.0
-        dt = C[DT_NOM]
+def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
+    """The slope history and the mass regression for one sample: ``T``, ``z`` the gated torque and speed, ``th``,
+    ``v``, ``p22`` the slope layer's grade, speed and grade variance for it (filtered, or smoothed when the
+    regression runs behind: :mod:`estimators.fixed_lag_kernel`), ``f_in``/``f_ok`` the accelerometer's last valid
+    value."""
     g = G_MPS2
-    use_rate = C[GATES] != 0.0
-    relock = C[RELOCK]
-    # a one-sample spike within the plausibility limits is held back until the next sample shows it was one: no
-    # innovation gate sees the inputs, and +-4 m/s^2 spikes on the accelerometer cost the point-mass fault trace
-    # 1.4 -> 3.9 % of mass (median of ten sensor seeds; docs/estimation.md, session 24)
-    torque = jump_step(S[T_JUMP_ST:T_JUMP_ST + JUMP_STATE], C[T_JUMP], C[JUMP_NOISE], torque)
-    accel = jump_step(S[F_JUMP_ST:F_JUMP_ST + JUMP_STATE], C[F_JUMP], C[JUMP_NOISE], accel)
-    T = _gate(S, GT_LAST, torque, dt, C[T_MAX], C[T_RATE], C[T_BAND], relock, use_rate)
-    z = _gate(S, GV_LAST, speed, dt, C[V_MAX], C[V_RATE], C[V_BAND], relock, use_rate)
-    # a frozen accelerometer (one value repeated, after it has shown its noise) counts as missing: it is plausible,
-    # and three seconds of it turn the geometry bank's weights (pm-sensor-faults; docs/estimation.md, session 23)
-    accel = stuck_step(S[STUCK_ST:STUCK_ST + STUCK_STATE], C[STUCK_N], accel)
-    f = _gate(S, GF_LAST, accel, dt, C[F_MAX], C[F_RATE], C[F_BAND], relock, use_rate)
-
-    # ---------------- slope layer: adaptive EKF on [v, theta_sensor] --------------------------------------------
-    v = S[V]
-    if v != v:
-        if z == z:
-            S[V] = z
-    else:
-        th = S[TH]
-        sn = math.sin(th)
-        cs = math.cos(th)
-        c_m = S[MC]
-        if C[USE_ACCEL] != 0.0 and S[F_OK] != 0.0:
-            # kinematics: the accelerometer measures f = dv/dt + g sin(theta); no mass, torque or mu needed
-            acc = S[F_IN] - g * sn
-            f12 = -dt * g * cs
-            q11 = C[ACC_VAR] * dt * dt
-            moving = True
-        else:
-            # the paper's model (eq. 24) with the mass layer's M and mu: what is left without an accelerometer
-            m = c_m * C[M_REF]
-            mu = S[MD] / c_m
-            g_over = g / (1.0 + C[M_ROT] / m)
-            acc = S[FORCE_IN] / (m + C[M_ROT]) - g_over * (sn + mu * cs)
-            moving = v > 0.02 or acc > 0.0  # held by static friction / brakes at standstill
-            f12 = -dt * g_over * (cs - mu * sn) if moving else 0.0
-            q11 = C[MODEL_ACC_VAR] * dt * dt
-        if moving:
-            S[V] = v + dt * acc
-        p11, p12, p22 = S[P11], S[P12], S[P22]
-        curv = C[CURV_VAR_M] > 0.0
-        p13, p23, p33 = S[P13], S[P23], S[P33]
-        # the grade is a function of position: it drifts with the distance travelled, not with time
-        q22 = C[GRADE_VAR_M] * abs(v) * dt
-        if curv:
-            # third state: the grade's curvature (roadways are straight grades joined by vertical curves), so a
-            # grade that changes along the track is followed without the lag of a random walk
-            ds = v * dt if moving else 0.0
-            S[TH] = _clip(S[TH] + S[KAP] * ds, C[MAX_SLOPE])
-            # P <- F P F^T + Q with F = [[1, f12, 0], [0, 1, ds], [0, 0, 1]]
-            n11 = p11 + 2.0 * f12 * p12 + f12 * f12 * p22 + q11
-            n12 = p12 + f12 * p22 + ds * (p13 + f12 * p23)
-            n13 = p13 + f12 * p23
-            n22 = p22 + 2.0 * ds * p23 + ds * ds * p33 + q22
-            n23 = p23 + ds * p33
-            n33 = p33 + C[CURV_VAR_M] * abs(ds)
-            p11, p12, p13, p22, p23, p33 = n11, n12, n13, min(n22, C[P0_TH]), n23, min(n33, C[P0_KAP])
-        else:
-            p11 = p11 + 2.0 * f12 * p12 + f12 * f12 * p22 + q11
-            p12 = p12 + f12 * p22
-            p22 = min(p22 + q22, C[P0_TH])
-        if z == z:
-            eps = z - S[V]
-            s_inn = p11 + S[R]
-            if use_rate and eps * eps > C[GATE2] * s_inn and S[REJ] < relock:
-                S[REJ] += 1.0
-            elif S[REJ] >= relock and use_rate:
-                # persistently "outlying": the state was wrong, restart the speed there
-                S[REJ] = 0.0
-                S[V] = z
-                p11 = max(p11, S[R])
-            else:
-                S[REJ] = 0.0
-                # consistency of the speed prediction (R before this sample adapts it): chi2(1) if the filter is right
-                S[NIS] = eps * eps / s_inn
-                if C[ADAPT_R] != 0.0:
-                    # Sage-Husa estimate of R (weights from k = 1: d_1 ~ 0.5 keeps the prior); the unbiased form
-                    # eps^2 - H P- H^T falls back to the biased one when not positive, then bounded
-                    S[K] += 1.0
-                    S[BK] *= C[FADING]
-                    d = (1.0 - C[FADING]) / (1.0 - S[BK] * C[FADING])
-                    r_new = (1.0 - d) * S[R] + d * (eps * eps - p11)
-                    if r_new <= C[R_MIN]:
-                        r_new = (1.0 - d) * S[R] + d * eps * eps
-                    S[R] = min(max(r_new, C[R_MIN]), C[R_MAX])
-                if curv:
-                    dv, dth, dk, p11, p12, p13, p22, p23, p33 = _kf_update3(p11, p12, p13, p22, p23, p33, eps,
-                                                                            S[R])
-                    S[KAP] = _clip(S[KAP] + dk, C[KAP_MAX])
-                else:
-                    dv, dth, p11, p12, p22 = _kf_update(p11, p12, p22, eps, S[R])
-                S[V] += dv
-                S[TH] = _clip(S[TH] + dth, C[MAX_SLOPE])
-        if curv:
-            p11, p12, p13, p22, p23, p33 = _repair3(p11, p12, p13, p22, p23, p33, 1e-14, C[P0_TH])
-            S[P13], S[P23], S[P33] = p13, p23, p33
-        else:
-            p11, p12, p22 = _repair(p11, p12, p22, 1e-14, 1e-14)
-        S[P11], S[P12], S[P22] = p11, p12, p22
-    if f == f:
-        S[F_IN] = f
-        S[F_OK] = 1.0
-    else:
-        S[F_OK] = 0.0
-    if T == T:
-        S[FORCE_IN] = T / C[RADIUS]
-
     # ---------------- slope under the whole train: history of theta along the distance travelled ---------------
-    th = S[TH]
     n_hist = int(C[N_HIST])
     n_buf = int(C[N_BUF])
     if n_buf > 0:
-        v = S[V]
         if v == v and v > 0.0:
             S[DIST] += v * dt
         if S[MOVED] == 0.0:
@@ -356,7 +240,7 @@ def step(S, H, C, torque, speed, accel, dt):
             S[HSUM] = n_hist * th
             S[HEAD] = 0.0
             S[NEXT_S] = S[DIST] + C[HIST_DS]
-            if S[DIST] > C[HIST_DS] and S[P22] < C[READY_VAR]:
+            if S[DIST] > C[HIST_DS] and p22 < C[READY_VAR]:
                 S[MOVED] = 1.0
                 S[DIST0] = S[DIST]
         n_push = 0
@@ -410,7 +294,7 @@ def step(S, H, C, torque, speed, accel, dt):
     # a missing speed sample is filled with the slope layer's prediction (the accelerometer integrated): a paused
     # speed filter lags behind an acceleration, and the samples after the gap, which the regression uses, would
     # read too large a dv/dt (2 % speed dropouts: mass -1.2 % on the point-mass fault trace; session 24)
-    zf = z if z == z or C[FILL_SPEED] == 0.0 else S[V]
+    zf = z if z == z or C[FILL_SPEED] == 0.0 else v
     F = _lp(S, LF1, T / C[RADIUS] if T == T else math.nan, a)
     vf = _lp(S, LV1, zf, a)
     if S[LV_OK] == 0.0:  # no valid speed yet
@@ -421,20 +305,20 @@ def step(S, H, C, torque, speed, accel, dt):
     S[ACC_F] = acc_f
     if C[FUSED] != 0.0:
         sin_lp = _lp(S, LS1, math.sin(S[TH_WIN]), a)
-        sin_loc_lp = _lp(S, LL1, math.sin(S[TH]), a)
+        sin_loc_lp = _lp(S, LL1, math.sin(th), a)
         cos_lp = 1.0
     else:
         th_train = S[TH_TRAIN]
         sin_lp = _lp(S, LS1, math.sin(th_train), a)
         cos_lp = _lp(S, LC1, math.cos(th_train), a)
-        sin_loc_lp = _lp(S, LL1, math.sin(S[TH]), a) if C[ACC_REG] != 0.0 else sin_lp
+        sin_loc_lp = _lp(S, LL1, math.sin(th), a) if C[ACC_REG] != 0.0 else sin_lp
     if C[ACC_REG] != 0.0:
         # the accelerometer measures dv/dt + g sin(theta) at the sensors: its low-pass minus the same low-passed
         # dv/dt is the gravity term there without the slope layer's lag behind a grade change (its bias is a
         # constant the offset takes); the slope layer then supplies only the geometry, the slope gravity acts on
         # minus the slope under the sensors. Held through accelerometer dropouts (it changes slowly).
-        if S[F_OK] != 0.0:
-            S[G_SHIFT] = (_lp(S, LG1, S[F_IN], a) - acc_f) / g - sin_loc_lp
+        if f_ok != 0.0:
+            S[G_SHIFT] = (_lp(S, LG1, f_in, a) - acc_f) / g - sin_loc_lp
         sin_lp += S[G_SHIFT]
         sin_loc_lp += S[G_SHIFT]
     if C[CHAIN_L] > 0.0:
@@ -463,7 +347,7 @@ def step(S, H, C, torque, speed, accel, dt):
     # a measured force, traction or electric braking; near zero torque an unmeasured brake may act (the plant's)
     force_ok = F > C[MIN_FORCE] or (C[BRAKING] != 0.0 and F < -C[MIN_FORCE])
     usable = (raw_ok and S[LF_OK] != 0.0 and S[T_VALID] > C[SETTLE_S] and vf > C[MIN_SPEED] and force_ok
-              and S[P22] < C[READY_VAR])
+              and p22 < C[READY_VAR])
     if not usable:
         return
     y = (F - C[M_ROT] * acc_f - C[M_RIGID] * (acc_f - a_load_f)) / C[M_REF]
@@ -579,6 +463,182 @@ def step(S, H, C, torque, speed, accel, dt):
 
 
 @njit(cache=True)
+def _flush_ring(S, H, C, m, use_rate):
+    """The fixed-lag smoother's backward pass over the ring, then its ``m`` oldest samples through the regression,
+    oldest first, each with its smoothed grade and speed (:mod:`estimators.fixed_lag_kernel`)."""
+    head = int(S[RING_HEAD])
+    n = int(S[RING_N])
+    m = min(m, n)
+    smooth_ring(H, head, n, C[MAX_SLOPE])
+    for i in range(m):
+        b = RING0 + RING_W * ((head + i) % RING_MAX)
+        _regress(S, H, C, H[b + R_T], H[b + R_Z], H[b + R_DT], H[b + R_XS + 1], H[b + R_XS], H[b + R_PF + 3],
+                 H[b + R_FIN], H[b + R_FOK], use_rate)
+    S[RING_HEAD] = float((head + m) % RING_MAX)
+    S[RING_N] = float(n - m)
+
+
+@njit(cache=True)
+def step(S, H, C, torque, speed, accel, dt):
+    """Process one sample. Returns nothing; the estimate is read from ``S`` (:func:`estimate`)."""
+    if not (dt > 0.0):  # NaN, 0, negative: a repeated or out-of-order stamp; nothing to integrate
+        return
+    if dt > C[GAP_S]:  # a gap (inf, 1e300 included): restart, then treat the sample as the first after it
+        if S[RING_N] > 0.0:  # the samples before the gap go to the regression first, smoothed up to the gap
+            _flush_ring(S, H, C, int(S[RING_N]), C[GATES] != 0.0)
+        _restart_signals(S, H)
+        S[P22] = max(S[P22], C[P0_TH])
+        # the curvature of a stretch the train may have moved along unseen: back to its prior, uncorrelated
+        S[KAP] = 0.0
+        S[P13] = 0.0
+        S[P23] = 0.0
+        S[P33] = max(S[P33], C[P0_KAP])
+        S[N_GAPS] += 1.0
+        dt = C[DT_NOM]
+    g = G_MPS2
+    use_rate = C[GATES] != 0.0
+    relock = C[RELOCK]
+    # a one-sample spike within the plausibility limits is held back until the next sample shows it was one: no
+    # innovation gate sees the inputs, and +-4 m/s^2 spikes on the accelerometer cost the point-mass fault trace
+    # 1.4 -> 3.9 % of mass (median of ten sensor seeds; docs/estimation.md, session 24)
+    torque = jump_step(S[T_JUMP_ST:T_JUMP_ST + JUMP_STATE], C[T_JUMP], C[JUMP_NOISE], torque)
+    accel = jump_step(S[F_JUMP_ST:F_JUMP_ST + JUMP_STATE], C[F_JUMP], C[JUMP_NOISE], accel)
+    T = _gate(S, GT_LAST, torque, dt, C[T_MAX], C[T_RATE], C[T_BAND], relock, use_rate)
+    z = _gate(S, GV_LAST, speed, dt, C[V_MAX], C[V_RATE], C[V_BAND], relock, use_rate)
+    # a frozen accelerometer (one value repeated, after it has shown its noise) counts as missing: it is plausible,
+    # and three seconds of it turn the geometry bank's weights (pm-sensor-faults; docs/estimation.md, session 23)
+    accel = stuck_step(S[STUCK_ST:STUCK_ST + STUCK_STATE], C[STUCK_N], accel)
+    f = _gate(S, GF_LAST, accel, dt, C[F_MAX], C[F_RATE], C[F_BAND], relock, use_rate)
+
+    # ---------------- slope layer: adaptive EKF on [v, theta_sensor] --------------------------------------------
+    # for the fixed-lag smoother: this step's prediction, its transition, and whether it continued the last state
+    link = 0.0
+    xp_v = xp_t = xp_k = f12 = ds = 0.0
+    pp11 = pp12 = pp13 = pp22 = pp23 = 0.0
+    pp33 = 1.0
+    v = S[V]
+    if v != v:
+        if z == z:
+            S[V] = z
+    else:
+        th = S[TH]
+        sn = math.sin(th)
+        cs = math.cos(th)
+        c_m = S[MC]
+        if C[USE_ACCEL] != 0.0 and S[F_OK] != 0.0:
+            # kinematics: the accelerometer measures f = dv/dt + g sin(theta); no mass, torque or mu needed
+            acc = S[F_IN] - g * sn
+            f12 = -dt * g * cs
+            q11 = C[ACC_VAR] * dt * dt
+            moving = True
+        else:
+            # the paper's model (eq. 24) with the mass layer's M and mu: what is left without an accelerometer
+            m = c_m * C[M_REF]
+            mu = S[MD] / c_m
+            g_over = g / (1.0 + C[M_ROT] / m)
+            acc = S[FORCE_IN] / (m + C[M_ROT]) - g_over * (sn + mu * cs)
+            moving = v > 0.02 or acc > 0.0  # held by static friction / brakes at standstill
+            f12 = -dt * g_over * (cs - mu * sn) if moving else 0.0
+            q11 = C[MODEL_ACC_VAR] * dt * dt
+        if moving:
+            S[V] = v + dt * acc
+        p11, p12, p22 = S[P11], S[P12], S[P22]
+        curv = C[CURV_VAR_M] > 0.0
+        p13, p23, p33 = S[P13], S[P23], S[P33]
+        # the grade is a function of position: it drifts with the distance travelled, not with time
+        q22 = C[GRADE_VAR_M] * abs(v) * dt
+        if curv:
+            # third state: the grade's curvature (roadways are straight grades joined by vertical curves), so a
+            # grade that changes along the track is followed without the lag of a random walk
+            ds = v * dt if moving else 0.0
+            S[TH] = _clip(S[TH] + S[KAP] * ds, C[MAX_SLOPE])
+            # P <- F P F^T + Q with F = [[1, f12, 0], [0, 1, ds], [0, 0, 1]]
+            n11 = p11 + 2.0 * f12 * p12 + f12 * f12 * p22 + q11
+            n12 = p12 + f12 * p22 + ds * (p13 + f12 * p23)
+            n13 = p13 + f12 * p23
+            n22 = p22 + 2.0 * ds * p23 + ds * ds * p33 + q22
+            n23 = p23 + ds * p33
+            n33 = p33 + C[CURV_VAR_M] * abs(ds)
+            p11, p12, p13, p22, p23, p33 = n11, n12, n13, min(n22, C[P0_TH]), n23, min(n33, C[P0_KAP])
+            pp13, pp23, pp33 = p13, p23, p33
+        else:
+            p11 = p11 + 2.0 * f12 * p12 + f12 * f12 * p22 + q11
+            p12 = p12 + f12 * p22
+            p22 = min(p22 + q22, C[P0_TH])
+        link = 1.0
+        xp_v, xp_t, xp_k = S[V], S[TH], S[KAP]
+        pp11, pp12, pp22 = p11, p12, p22
+        if z == z:
+            eps = z - S[V]
+            s_inn = p11 + S[R]
+            if use_rate and eps * eps > C[GATE2] * s_inn and S[REJ] < relock:
+                S[REJ] += 1.0
+            elif S[REJ] >= relock and use_rate:
+                # persistently "outlying": the state was wrong, restart the speed there
+                link = 0.0
+                S[REJ] = 0.0
+                S[V] = z
+                p11 = max(p11, S[R])
+            else:
+                S[REJ] = 0.0
+                # consistency of the speed prediction (R before this sample adapts it): chi2(1) if the filter is right
+                S[NIS] = eps * eps / s_inn
+                if C[ADAPT_R] != 0.0:
+                    # Sage-Husa estimate of R (weights from k = 1: d_1 ~ 0.5 keeps the prior); the unbiased form
+                    # eps^2 - H P- H^T falls back to the biased one when not positive, then bounded
+                    S[K] += 1.0
+                    S[BK] *= C[FADING]
+                    d = (1.0 - C[FADING]) / (1.0 - S[BK] * C[FADING])
+                    r_new = (1.0 - d) * S[R] + d * (eps * eps - p11)
+                    if r_new <= C[R_MIN]:
+                        r_new = (1.0 - d) * S[R] + d * eps * eps
+                    S[R] = min(max(r_new, C[R_MIN]), C[R_MAX])
+                if curv:
+                    dv, dth, dk, p11, p12, p13, p22, p23, p33 = _kf_update3(p11, p12, p13, p22, p23, p33, eps,
+                                                                            S[R])
+                    S[KAP] = _clip(S[KAP] + dk, C[KAP_MAX])
+                else:
+                    dv, dth, p11, p12, p22 = _kf_update(p11, p12, p22, eps, S[R])
+                S[V] += dv
+                S[TH] = _clip(S[TH] + dth, C[MAX_SLOPE])
+        if curv:
+            p11, p12, p13, p22, p23, p33 = _repair3(p11, p12, p13, p22, p23, p33, 1e-14, C[P0_TH])
+            S[P13], S[P23], S[P33] = p13, p23, p33
+        else:
+            p11, p12, p22 = _repair(p11, p12, p22, 1e-14, 1e-14)
+        S[P11], S[P12], S[P22] = p11, p12, p22
+    if f == f:
+        S[F_IN] = f
+        S[F_OK] = 1.0
+    else:
+        S[F_OK] = 0.0
+    if T == T:
+        S[FORCE_IN] = T / C[RADIUS]
+    if C[SMOOTH_L] == 0.0:
+        _regress(S, H, C, T, z, dt, S[TH], S[V], S[P22], S[F_IN], S[F_OK], use_rate)
+        return
+    # fixed-lag smoothing: the sample joins the ring; once it holds the lag and one block, one backward pass, and the
+    # block's oldest samples go to the regression, smoothed over at least the lag's later samples
+    n = int(S[RING_N])
+    b = RING0 + RING_W * ((int(S[RING_HEAD]) + n) % RING_MAX)
+    curv3 = C[CURV_VAR_M] > 0.0
+    H[b + R_T], H[b + R_Z], H[b + R_F], H[b + R_DT] = T, z, f, dt
+    H[b + R_FIN], H[b + R_FOK] = S[F_IN], S[F_OK]
+    H[b + R_XF], H[b + R_XF + 1], H[b + R_XF + 2] = S[V], S[TH], S[KAP]
+    H[b + R_PF], H[b + R_PF + 1], H[b + R_PF + 3] = S[P11], S[P12], S[P22]
+    H[b + R_PF + 2] = S[P13] if curv3 else 0.0
+    H[b + R_PF + 4] = S[P23] if curv3 else 0.0
+    H[b + R_PF + 5] = S[P33] if curv3 else 1.0
+    H[b + R_XP], H[b + R_XP + 1], H[b + R_XP + 2] = xp_v, xp_t, xp_k
+    H[b + R_PP], H[b + R_PP + 1], H[b + R_PP + 2] = pp11, pp12, pp13
+    H[b + R_PP + 3], H[b + R_PP + 4], H[b + R_PP + 5] = pp22, pp23, pp33
+    H[b + R_F12], H[b + R_DS], H[b + R_LINK] = f12, ds, link
+    S[RING_N] = n + 1.0
+    if n + 1 >= C[SMOOTH_L] + C[SMOOTH_NB]:
+        _flush_ring(S, H, C, int(C[SMOOTH_NB]), use_rate)
+
+
+@njit(cache=True)
 def estimate(S, C, out):
     """Write (mass, slope, mass_std, slope_std, mu, mu_std, alpha, nis, score) into ``out`` (alpha: fused only,
     else 0; nis: that of the last speed correction, held between corrections; score: the geometry evidence)."""
@@ -587,7 +647,19 @@ def estimate(S, C, out):
     # ~CORR_N samples: the parameter variance is that much too small
     infl = max(1.0, S[RES_VAR] / C[R_M]) * C[CORR_N]
     out[0] = c * C[M_REF]
-    out[1] = S[TH_TRAIN]
+    if C[SMOOTH_L] == 0.0:
+        out[1] = S[TH_TRAIN]
+    else:
+        # the regression (and TH_TRAIN) runs behind: the reported slope is the slope layer's now, over the window
+        # the history holds up to the regression's sample
+        th = S[TH]
+        n_hist = C[N_HIST]
+        th_win = (th + S[HSUM]) / (n_hist + 1.0) if C[N_BUF] > 0.0 and n_hist > 0.0 else th
+        if C[FUSED] != 0.0:
+            al = min(max(S[MB] / c, 0.0), 1.0)
+            out[1] = al * th + (1.0 - al) * th_win
+        else:
+            out[1] = th_win
     out[2] = math.sqrt(min(S[PC] * infl, C[P0_C])) * C[M_REF]  # never above the prior
     var_th = S[P22]
     if C[FUSED] != 0.0:

@@ -1,7 +1,7 @@
 """Index layout of the ``dffrls-aekf`` / ``fused`` kernel's arrays (:mod:`estimators.dffrls_aekf_kernel`).
 
 ``C`` holds the settings (written by :meth:`estimators.dffrls_aekf.DFFRLSAEKFConfig.settings`), ``S`` the state,
-``H`` the slope history (``N_HIST_MAX`` entries). Plain integer constants: numba compiles them in.
+``H`` the slope history (``N_HIST_MAX`` entries) and the fixed-lag smoother's ring (``N_H`` in all). Plain integer constants: numba compiles them in.
 """
 
 # --- settings C ---------------------------------------------------------------------------------------------------
@@ -87,7 +87,9 @@ FUSED_SPREAD = 78  # fused: 1 = the mass (not the offset or blend) is a consider
 BLEND_EARLY = 79  # fused: 1 = the blend learns from the first metre moved (0: once the window holds measured slopes)
 EARLY_KEPT = 80  # fused with BLEND_EARLY: the share of alpha's early deviation from its prior kept once the window
 #   first holds measured slopes only (its variance then back to the prior: the early evidence leans, the later decides)
-CHAIN_SET = 81  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+SMOOTH_L = 81  # fixed-lag smoothing: the regression runs this many samples behind the slope layer (0: at once)
+SMOOTH_NB = 82  # ... one backward pass per this many new samples (estimators.fixed_lag_kernel)
+CHAIN_SET = 83  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8
@@ -178,11 +180,18 @@ STUCK_ST = 81  # the accelerometer's stuck detector (estimators.input_faults.stu
 T_JUMP_ST = 85  # the torque's and the accelerometer's jump gates (estimators.input_faults.jump_step; 3 slots each)
 F_JUMP_ST = 88
 B_MEASURED = 91  # fused: 1 once the slope window has held measured slopes only (EARLY_KEPT applied)
-CHAIN_ST = 92  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
+RING_HEAD = 92  # fixed-lag smoothing: the ring's oldest record's slot, and how many records it holds
+RING_N = 93
+CHAIN_ST = 94  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
 #   low-pass of its load acceleration (3 slots), that acceleration, its force-balance evidence (negative log-lik.)
 CHAIN_ST_W = 7
 N_S = CHAIN_ST + CHAIN_ST_W * MAX_CHAINS
 N_HIST_MAX = 512
+# --- H: the slope history (N_HIST_MAX entries), then the fixed-lag smoother's ring (estimators.fixed_lag_kernel) ---
+RING_W = 29  # floats per ring record
+RING_MAX = 384  # records the ring holds: the lag plus one block, at most
+RING0 = N_HIST_MAX
+N_H = RING0 + RING_W * RING_MAX
 # --- estimate row: what estimate() writes (mass, slope, their stds, mu, mu_std, alpha, nis, score) -------------
 N_EST = 9
 EST_SCORE = 8  # the estimate row's column of the force-balance score (the geometry bank weighs its members by it)

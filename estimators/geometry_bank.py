@@ -87,7 +87,7 @@ class GeometryBank(Estimator):
         k = len(self.members)
         # the members' arrays are rows of three stacked arrays, so the compiled bank step sees them all at once
         self._SS = np.zeros((k, kern.N_S))
-        self._HH = np.zeros((k, kern.N_HIST_MAX))
+        self._HH = np.zeros((k, kern.N_H))
         self._CC = np.ascontiguousarray(np.stack([m.C for m in self.members]))
         for i, m in enumerate(self.members):
             m.S, m.H, m.C = self._SS[i], self._HH[i], self._CC[i]

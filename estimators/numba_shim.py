@@ -29,7 +29,8 @@ except ImportError:  # pragma: no cover
 HAVE_NUMBA = njit.__module__.startswith("numba")
 
 KERNEL_SOURCES: tuple[str, ...] = ("numba_shim.py", "dffrls_aekf_layout.py", "dffrls_aekf_kernel.py",
-                                   "fused_kernel.py", "geometry_bank_kernel.py", "mmae_kernel.py", "input_faults.py")
+                                   "fused_kernel.py", "fixed_lag_kernel.py", "geometry_bank_kernel.py", "mmae_kernel.py",
+                                   "input_faults.py")
 """The files whose compiled functions depend on one another (every file that uses :func:`njit`, and the layout)."""
 
 STAMP_NAME = "kernels.sha256"

@@ -1,14 +1,18 @@
 """The compiled per-sample step of ``dffrls-aekf`` and ``fused`` (see :mod:`estimators.dffrls_aekf` for the method).
 
-About 540 lines on purpose: :func:`step` is one compiled function over three arrays (its helpers are inlined by
-numba); the array layout is in :mod:`estimators.dffrls_aekf_layout`, the fused regression in
-:mod:`estimators.fused_kernel`.
+About 700 lines on purpose: :func:`step` (input gates and the slope layer) and :func:`_regress` (the slope history
+and the mass regression) are compiled functions over three arrays (their small helpers inlined by numba); the array
+layout is in :mod:`estimators.dffrls_aekf_layout`, the fused regression in :mod:`estimators.fused_kernel`, the
+optional fixed-lag smoother that lets :func:`_regress` run behind the slope layer in
+:mod:`estimators.fixed_lag_kernel` (``smoothing_lag_s``; with the lag 0, the default, :func:`step` calls
+:func:`_regress` at once with the filtered grade).
 
 The whole estimator state lives in two float64 arrays (``S``: scalars, ``H``: the slope history along the distance
-travelled) and its settings in a third (``C``), indexed by the module constants below, so one function,
-:func:`step`, serves both the online ``update()`` (one call per sample) and the batch :func:`run` (a compiled loop
-over a whole trace calling the same :func:`step`): the two paths cannot drift apart. Compiled with numba when it is
-installed (``@njit(cache=True)``); without numba the same code runs as plain Python (same results, ~100x slower).
+travelled, then the smoother's ring) and its settings in a third (``C``), indexed by the module constants below, so
+one function, :func:`step`, serves both the online ``update()`` (one call per sample) and the batch :func:`run` (a
+compiled loop over a whole trace calling the same :func:`step`): the two paths cannot drift apart. Compiled with
+numba when it is installed (``@njit(cache=True)``); without numba the same code runs as plain Python (same results,
+~100x slower).
 
 Robust by construction (issue 12): every input passes a finiteness and magnitude check before it can touch the
 state; ``dt`` that is NaN, zero or negative leaves the state untouched (a repeated or out-of-order time stamp);

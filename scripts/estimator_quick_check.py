@@ -24,7 +24,9 @@ others draw other noise, biases and faults on the same physics): one seed is one
 and the scenario table of one seed says little about the next (docs/estimation.md, session 17).
 
 ``--clean-sensors`` runs the point-mass scenarios with perfect sensors (no noise, bias, quantisation or vibration;
-faults kept): what is left is the estimator's model error (docs/estimation.md, session 20).
+faults kept): what is left is the estimator's model error (docs/estimation.md, session 20). ``--sensor-scale K``
+multiplies every one of those sensor imperfections by K instead (0: ``--clean-sensors``; 2: sensors twice as noisy,
+biased and coarse as the tuning world's): how an estimator holds on sensors it was not tuned to (session 26).
 
 ``--decimate K`` keeps every K-th sample of every run: what a logger at 200/K Hz records (the estimators' settings
 are per 5 ms sample; docs/estimation.md, "Logs at other sample rates").
@@ -37,7 +39,7 @@ import collections
 import json
 import multiprocessing
 import sys
-from dataclasses import replace
+from dataclasses import fields, replace
 from typing import Any
 
 import numpy as np
@@ -73,17 +75,26 @@ def decimate(tr: Trace, k: int) -> Trace:
     return tr if k == 1 else Trace({c: v[::k] for c, v in tr.columns.items()}, source=tr.source, meta=dict(tr.meta))
 
 
+def scaled_scenario_run(spec: RunSpec, scale: float) -> Trace:
+    """The point-mass scenario of ``spec`` with its sensors' noise, bias spreads, quantisation and vibration all
+    multiplied by ``scale`` (0: perfect sensors; its faults, if any, kept)."""
+    from uuom_gym.sim.point_mass import point_mass_scenario, simulate_point_mass, with_options
+
+    sc = point_mass_scenario(spec.scenario)
+    sensors = replace(sc.sensors, **{f.name: scale * getattr(sc.sensors, f.name) for f in fields(sc.sensors)
+                                      if f.name != "vibration_hz"})
+    return simulate_point_mass(with_options(sc, sensors=sensors), seed=spec.seed)
+
+
 def clean_scenario_run(spec: RunSpec) -> Trace:
     """The point-mass scenario of ``spec`` with perfect sensors (its faults, if any, kept)."""
-    from uuom_gym.sim.point_mass import PointMassSensors, point_mass_scenario, simulate_point_mass, with_options
-
-    sc = with_options(point_mass_scenario(spec.scenario), sensors=PointMassSensors.perfect())
-    return simulate_point_mass(sc, seed=spec.seed)
+    return scaled_scenario_run(spec, 0.0)
 
 
-def _score(job: tuple[str, RunSpec, list[list[Any]], int, float, bool]) -> list[tuple[str, str, float, float]]:
-    group, spec, configs, k, settle_s, clean = job
-    tr = decimate(clean_scenario_run(spec) if clean and group.startswith("pm-sc:") else make_run(spec), k)
+def _score(job: tuple[str, RunSpec, list[list[Any]], int, float, float]) -> list[tuple[str, str, float, float]]:
+    group, spec, configs, k, settle_s, sensor_scale = job
+    own = sensor_scale == 1.0 or not group.startswith("pm-sc:")
+    tr = decimate(make_run(spec) if own else scaled_scenario_run(spec, sensor_scale), k)
     t = tr["t_s"]
     slope = train_slope_deg(tr)
     rows = []
@@ -111,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="run each point-mass scenario with sensor seeds 0..N-1 (default 1: the protocol's seed 0)")
     ap.add_argument("--clean-sensors", action="store_true",
                     help="point-mass scenarios with perfect sensors (no noise, bias, quantisation, vibration)")
+    ap.add_argument("--sensor-scale", type=float, default=None, metavar="K",
+                    help="point-mass scenarios with every sensor imperfection times K (0 = --clean-sensors)")
     ap.add_argument("--settle", type=float, default=10.0, metavar="S",
                     help="score the errors after S seconds (default 10, issue 10's metric; a run lasts 60 s)")
     args = ap.parse_args(argv)
@@ -118,6 +131,11 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--scenario-seeds must be >= 1, got {args.scenario_seeds}")
     if min(args.runs, args.tuning, args.point_tuning) < 0:
         ap.error("--runs, --tuning and --point-tuning must be >= 0")
+    if args.clean_sensors and args.sensor_scale not in (None, 0.0):
+        ap.error("--clean-sensors is --sensor-scale 0; give one of them")
+    scale = 0.0 if args.clean_sensors else (1.0 if args.sensor_scale is None else args.sensor_scale)
+    if not (0.0 <= scale < 100.0):
+        ap.error(f"--sensor-scale must be in [0, 100), got {args.sensor_scale}")
     if args.decimate < 1:
         ap.error(f"--decimate must be >= 1, got {args.decimate}")
     if not 0.0 <= args.settle < 55.0:
@@ -127,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--configs must be a JSON list of [label, estimator, {options}]")
     for _, name, options in configs:
         get_class(name)(**options)  # an unknown estimator or option fails here, named, before any run
-    jobs = [(g, s, configs, args.decimate, args.settle, args.clean_sensors)
+    jobs = [(g, s, configs, args.decimate, args.settle, scale)
             for g, s in _specs(args.runs, args.tuning, args.scenario_seeds, args.point_tuning)]
     with multiprocessing.Pool(max(1, args.workers)) as pool:
         rows = [r for rs in pool.map(_score, jobs, chunksize=1) for r in rs]

@@ -94,3 +94,26 @@ def test_negative_run_counts_are_refused_before_any_run(capsys):
     with pytest.raises(SystemExit) as exc:
         qc.main(["--point-tuning", "-1", "--runs", "0", "--tuning", "0"])
     assert exc.value.code == 2 and "must be >= 0" in capsys.readouterr().err
+
+
+def test_sensor_scale_scales_every_imperfection():
+    """``--sensor-scale K``: K = 1 is the scenario as the protocol records it, K = 0 the perfect sensors of
+    ``--clean-sensors``, and K = 2 reads twice as far from the truth (noise, bias, quantisation, vibration)."""
+    from uuom_gym.sim.protocol_runs import make_run, protocol_runs
+
+    spec = next(s for s in protocol_runs(0, 0, paper_seeds=1, fault_seeds=0) if s.scenario == "pm-section1")
+    own = make_run(spec)
+    one, two = qc.scaled_scenario_run(spec, 1.0), qc.scaled_scenario_run(spec, 2.0)
+    for c in ("torque_nm", "speed_mps", "accel_mps2"):
+        np.testing.assert_array_equal(one[c], own[c])
+    np.testing.assert_array_equal(qc.scaled_scenario_run(spec, 0.0)["accel_mps2"],
+                                  qc.clean_scenario_run(spec)["accel_mps2"])
+    dv1 = np.std(one["speed_mps"] - one["true_speed_mps"])
+    dv2 = np.std(two["speed_mps"] - two["true_speed_mps"])
+    assert 1.7 < dv2 / dv1 < 2.3, dv2 / dv1
+
+
+def test_clean_sensors_and_a_sensor_scale_are_one_choice(capsys):
+    with pytest.raises(SystemExit):
+        qc.main(["--runs", "0", "--tuning", "0", "--clean-sensors", "--sensor-scale", "2"])
+    assert "--clean-sensors is --sensor-scale 0" in capsys.readouterr().err

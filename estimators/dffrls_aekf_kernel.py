@@ -48,7 +48,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     SMOOTH_L, SMOOTH_NB, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
 )
 from .fixed_lag_kernel import (
-    R_DS, R_DT, R_F, R_F12, R_FIN, R_FOK, R_LINK, R_PF, R_PP, R_T, R_XF, R_XP, R_XS, R_Z, smooth_ring,
+    R_DS, R_DT, R_F12, R_FIN, R_FOK, R_LINK, R_PF, R_PP, R_T, R_XF, R_XP, R_XS, R_Z, smooth_ring,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .input_faults import JUMP_STATE, STUCK_STATE, jump_reset, jump_step, stuck_reset, stuck_step
@@ -626,7 +626,7 @@ def step(S, H, C, torque, speed, accel, dt):
     n = int(S[RING_N])
     b = RING0 + RING_W * ((int(S[RING_HEAD]) + n) % RING_MAX)
     curv3 = C[CURV_VAR_M] > 0.0
-    H[b + R_T], H[b + R_Z], H[b + R_F], H[b + R_DT] = T, z, f, dt
+    H[b + R_T], H[b + R_Z], H[b + R_DT] = T, z, dt
     H[b + R_FIN], H[b + R_FOK] = S[F_IN], S[F_OK]
     H[b + R_XF], H[b + R_XF + 1], H[b + R_XF + 2] = S[V], S[TH], S[KAP]
     H[b + R_PF], H[b + R_PF + 1], H[b + R_PF + 3] = S[P11], S[P12], S[P22]
@@ -655,10 +655,12 @@ def estimate(S, C, out):
         out[1] = S[TH_TRAIN]
     else:
         # the regression (and TH_TRAIN) runs behind: the reported slope is the slope layer's now, over the window
-        # the history holds up to the regression's sample
+        # the history holds up to the regression's sample (until the train has moved, the slope it stands on: before
+        # the first backward pass the history is still empty)
         th = S[TH]
         n_hist = C[N_HIST]
-        th_win = (th + S[HSUM]) / (n_hist + 1.0) if C[N_BUF] > 0.0 and n_hist > 0.0 else th
+        moved = S[MOVED] != 0.0
+        th_win = (th + S[HSUM]) / (n_hist + 1.0) if C[N_BUF] > 0.0 and n_hist > 0.0 and moved else th
         if C[FUSED] != 0.0:
             al = min(max(S[MB] / c, 0.0), 1.0)
             out[1] = al * th + (1.0 - al) * th_win

@@ -188,7 +188,7 @@ CHAIN_ST_W = 7
 N_S = CHAIN_ST + CHAIN_ST_W * MAX_CHAINS
 N_HIST_MAX = 512
 # --- H: the slope history (N_HIST_MAX entries), then the fixed-lag smoother's ring (estimators.fixed_lag_kernel) ---
-RING_W = 29  # floats per ring record
+RING_W = 28  # floats per ring record
 RING_MAX = 384  # records the ring holds: the lag plus one block, at most
 RING0 = N_HIST_MAX
 N_H = RING0 + RING_W * RING_MAX

@@ -30,18 +30,17 @@ __all__ = ["ldl_solve3", "smooth_ring"]
 # --- one ring record ----------------------------------------------------------------------------------------------
 R_T = 0  # gated torque (NaN: missing)
 R_Z = 1  # gated speed
-R_F = 2  # gated accelerometer
-R_DT = 3  # the sample's dt (a gap's already replaced by the nominal step)
-R_FIN = 4  # the accelerometer value the regression's ACC_REG term reads, and whether it is valid
-R_FOK = 5
-R_XF = 6  # filtered v, theta, kappa (3)
-R_PF = 9  # filtered covariance p11, p12, p13, p22, p23, p33 (6)
-R_XP = 15  # predicted v, theta, kappa (3)
-R_PP = 18  # predicted covariance (6)
-R_F12 = 24  # transition: d v / d theta over the step, and the distance moved (d theta / d kappa)
-R_DS = 25
-R_LINK = 26  # 1: this sample's prediction came from the previous sample's filtered state (smoothing may pass)
-R_XS = 27  # smoothed v, theta (2), written by smooth_ring
+R_DT = 2  # the sample's dt (a gap's already replaced by the nominal step)
+R_FIN = 3  # the accelerometer value the regression's ACC_REG term reads, and whether it is valid
+R_FOK = 4
+R_XF = 5  # filtered v, theta, kappa (3)
+R_PF = 8  # filtered covariance p11, p12, p13, p22, p23, p33 (6)
+R_XP = 14  # predicted v, theta, kappa (3)
+R_PP = 17  # predicted covariance (6)
+R_F12 = 23  # transition: d v / d theta over the step, and the distance moved (d theta / d kappa)
+R_DS = 24
+R_LINK = 25  # 1: this sample's prediction came from the previous sample's filtered state (smoothing may pass)
+R_XS = 26  # smoothed v, theta (2), written by smooth_ring
 assert R_XS + 2 == RING_W, "the record layout must fill RING_W (estimators.dffrls_aekf_layout)"
 
 

@@ -111,3 +111,13 @@ def test_faults_and_gaps_with_smoothing() -> None:
 def test_bad_lag_is_refused(lag: float) -> None:
     with pytest.raises(ValueError, match="smoothing_lag_s"):
         estimators.make("dffrls-aekf", smoothing_lag_s=lag)
+
+
+def test_reported_slope_before_the_first_backward_pass(section1) -> None:
+    """A 12 m window filter with the lag on reports the slope it stands on from the first samples, not a window
+    of an empty history (the regression, which fills it, has not run yet)."""
+    est = DFFRLSAEKF(train_length_m=12.0, smoothing_lag_s=0.5)
+    dts = np.diff(section1["t_s"], prepend=section1["t_s"][0] - 0.005)
+    for k in range(120):  # 0.6 s: before the first pass (lag 100 + block 50 samples)
+        e = est.update(section1["torque_nm"][k], section1["speed_mps"][k], section1["accel_mps2"][k], dts[k])
+        assert e.slope_rad == est.S[kern.TH], k

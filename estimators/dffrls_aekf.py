@@ -282,6 +282,11 @@ class DFFRLSAEKFConfig:
         filter's of now; ~20 % slower. Not the default: measured at 0.25 / 0.5 / 1 s it loses on the plant's tuning
         runs (``dffrls-aekf`` mass max error p95 23.1 → 26.8 % at every lag) and on the point-mass scenarios
         (docs/estimation.md, session 26).
+    accel_std_per_noise : float
+        0 (default): the slope layer's accelerometer standard deviation is ``accel_std_mps2``. > 0: it is this many
+        times the accelerometer's noise read online (half the squared change between samples, clipped, averaged over
+        ~10 s; it starts at ``accel_std_mps2``), so the slope layer trusts a noisier accelerometer less. Measured, not
+        the default (docs/estimation.md, session 26).
     prior_curvature_std_per_m : float
         Prior (and cap) of the curvature's standard deviation (rad/m; 0.01: 6° of grade change over 10 m).
     max_curvature_per_m : float
@@ -344,6 +349,7 @@ class DFFRLSAEKFConfig:
     blend_from_start: bool = True
     early_blend_kept: float = 0.5
     smoothing_lag_s: float = 0.0
+    accel_std_per_noise: float = 0.0
     settle_s: float = 1.0
     slope_ready_std_rad: float = math.radians(1.0)
     gap_s: float = MAX_STEP_S
@@ -366,7 +372,7 @@ class DFFRLSAEKFConfig:
                         "min_accel_mps2", "offset_forgetting_ratio", "accel_bias_std_mps2",
                         "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after", "max_early_evidence",
                         "grade_curvature_std", "weak_accel_noise_factor", "torque_jump_fraction", "accel_jump_mps2",
-                        "jump_noise_factor", "early_blend_kept", "smoothing_lag_s")
+                        "jump_noise_factor", "early_blend_kept", "smoothing_lag_s", "accel_std_per_noise")
         if self.point_min_accel_mps2 is not None:  # None: the common gate
             non_negative += ("point_min_accel_mps2",)
         for name in positive + non_negative:
@@ -507,6 +513,7 @@ class DFFRLSAEKFConfig:
         if lag > 0 and lag + block > kern.RING_MAX:
             raise ValueError(f"dffrls-aekf: smoothing_lag_s / dt_nominal_s must be <= {2 * kern.RING_MAX // 3} "
                              f"samples, got {self.smoothing_lag_s!r} s")
+        C[kern.ACC_PER_NOISE] = self.accel_std_per_noise
         C[kern.SMOOTH_L] = float(lag)
         C[kern.SMOOTH_NB] = float(block) if lag > 0 else 0.0
         return C

@@ -45,7 +45,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
     CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
-    SMOOTH_L, SMOOTH_NB, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
+    SMOOTH_L, SMOOTH_NB, ACC_PER_NOISE, F_PREV, NOISE_F, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
 )
 from .fixed_lag_kernel import (
     R_DS, R_DT, R_F12, R_FIN, R_FOK, R_LINK, R_PF, R_PP, R_T, R_XF, R_XP, R_XS, R_Z, smooth_ring,
@@ -127,6 +127,9 @@ def reset(S, H, C):
     S[MB] = ALPHA_PRIOR * c0  # fused: beta = c alpha
     S[PB] = C[P0_B]
     S[NIS] = 1.0  # its expected value until the first speed correction (an output is never NaN)
+    S[F_PREV] = math.nan
+    if C[ACC_PER_NOISE] > 0.0:  # start where the fixed setting is
+        S[NOISE_F] = C[ACC_VAR] / (C[ACC_PER_NOISE] * C[ACC_PER_NOISE])
     stuck_reset(S[STUCK_ST:STUCK_ST + STUCK_STATE])
     jump_reset(S[T_JUMP_ST:T_JUMP_ST + JUMP_STATE])
     jump_reset(S[F_JUMP_ST:F_JUMP_ST + JUMP_STATE])
@@ -533,7 +536,10 @@ def step(S, H, C, torque, speed, accel, dt):
             # kinematics: the accelerometer measures f = dv/dt + g sin(theta); no mass, torque or mu needed
             acc = S[F_IN] - g * sn
             f12 = -dt * g * cs
-            q11 = C[ACC_VAR] * dt * dt
+            if C[ACC_PER_NOISE] > 0.0:
+                q11 = C[ACC_PER_NOISE] * C[ACC_PER_NOISE] * S[NOISE_F] * dt * dt
+            else:
+                q11 = C[ACC_VAR] * dt * dt
             moving = True
         else:
             # the paper's model (eq. 24) with the mass layer's M and mu: what is left without an accelerometer
@@ -612,6 +618,12 @@ def step(S, H, C, torque, speed, accel, dt):
             p11, p12, p22 = _repair(p11, p12, p22, 1e-14, 1e-14)
         S[P11], S[P12], S[P22] = p11, p12, p22
     if f == f:
+        if C[ACC_PER_NOISE] > 0.0 and S[F_PREV] == S[F_PREV]:
+            # the accelerometer's noise: half the squared change between samples (the signal moves little in 5 ms),
+            # clipped so a spike cannot set it, averaged over ~10 s
+            d = f - S[F_PREV]
+            S[NOISE_F] += 5e-4 * (min(0.5 * d * d, 0.25) - S[NOISE_F])
+        S[F_PREV] = f
         S[F_IN] = f
         S[F_OK] = 1.0
     else:

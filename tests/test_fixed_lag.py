@@ -1,4 +1,5 @@
-"""The fixed-lag smoother of the slope layer (``smoothing_lag_s``; ``estimators.fixed_lag_kernel``)."""
+"""Session 26's kernel options: the fixed-lag smoother of the slope layer (``smoothing_lag_s``;
+``estimators.fixed_lag_kernel``) and the accelerometer noise read online (``accel_std_per_noise``)."""
 
 from __future__ import annotations
 
@@ -121,3 +122,25 @@ def test_reported_slope_before_the_first_backward_pass(section1) -> None:
     for k in range(120):  # 0.6 s: before the first pass (lag 100 + block 50 samples)
         e = est.update(section1["torque_nm"][k], section1["speed_mps"][k], section1["accel_mps2"][k], dts[k])
         assert e.slope_rad == est.S[kern.TH], k
+
+
+def test_accelerometer_noise_is_read_online() -> None:
+    """``accel_std_per_noise``: the noise the kernel reads from the accelerometer follows the sensor (twice the
+    noise, about four times the variance), and the slope layer's accelerometer std starts at ``accel_std_mps2``."""
+    from dataclasses import fields, replace
+
+    from uuom_gym.sim.point_mass import with_options
+
+    est0 = DFFRLSAEKF(accel_std_per_noise=7.0)
+    assert est0.S[kern.NOISE_F] * 49.0 == pytest.approx(0.3**2)
+    read = []
+    for k in (1.0, 2.0):
+        sc = point_mass_scenario("pm-section1")
+        sen = replace(sc.sensors, **{f.name: k * getattr(sc.sensors, f.name) for f in fields(sc.sensors)
+                                      if f.name != "vibration_hz"})
+        tr = simulate_point_mass(with_options(sc, sensors=sen), seed=0)
+        est = DFFRLSAEKF(accel_std_per_noise=7.0)
+        est.run(tr)
+        read.append(est.S[kern.NOISE_F])
+    assert 0.03**2 < read[0] < 0.1**2, math.sqrt(read[0])
+    assert 3.0 < read[1] / read[0] < 5.0, read

@@ -225,6 +225,17 @@ def _chain_bank_score(S, C, e_mix, a_mix, s_var):
         S[CHAIN_ST + CHAIN_ST_W * k + 6] -= lo
 
 
+@njit(cache=True, inline="always")
+def _gravity_slope(S, C, th, th_win):
+    """The slope gravity acts on, from the slope under the sensors ``th`` and the window behind them ``th_win``:
+    the window's for ``dffrls-aekf``; for ``fused`` their blend with the weight alpha = beta / c learned from the
+    force balance (1 for a point mass)."""
+    if C[FUSED] != 0.0:
+        al = min(max(S[MB] / S[MC], 0.0), 1.0)
+        return al * th + (1.0 - al) * th_win
+    return th_win
+
+
 @njit(cache=True)
 def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
     """The slope history and the mass regression for one sample: ``T``, ``z`` the gated torque and speed, ``th``,
@@ -284,13 +295,7 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         S[PB] = max(S[PB], C[P0_B])
         S[PCB] = 0.0
         S[PDB] = 0.0
-    if C[FUSED] != 0.0:
-        # fused: the slope gravity acts on is a blend of the slope under the sensors and the window behind them,
-        # with the weight alpha = beta / c learned from the force balance (1 for a point mass)
-        al = min(max(S[MB] / S[MC], 0.0), 1.0)
-        S[TH_TRAIN] = al * th + (1.0 - al) * S[TH_WIN]
-    else:
-        S[TH_TRAIN] = S[TH_WIN]
+    S[TH_TRAIN] = _gravity_slope(S, C, th, S[TH_WIN])
 
     # ---------------- regression front end: F = T/r, v, dv/dt, the swinging load --------------------------------
     a = 1.0 - math.exp(-2.0 * math.pi * C[CUT_HZ] * dt)
@@ -490,9 +495,10 @@ def step(S, H, C, torque, speed, accel, dt):
     """Process one sample. Returns nothing; the estimate is read from ``S`` (:func:`estimate`)."""
     if not (dt > 0.0):  # NaN, 0, negative: a repeated or out-of-order stamp; nothing to integrate
         return
+    use_rate = C[GATES] != 0.0
     if dt > C[GAP_S]:  # a gap (inf, 1e300 included): restart, then treat the sample as the first after it
         if S[RING_N] > 0.0:  # the samples before the gap go to the regression first, smoothed up to the gap
-            _flush_ring(S, H, C, int(S[RING_N]), C[GATES] != 0.0)
+            _flush_ring(S, H, C, int(S[RING_N]), use_rate)
         _restart_signals(S, H)
         S[P22] = max(S[P22], C[P0_TH])
         # the curvature of a stretch the train may have moved along unseen: back to its prior, uncorrelated
@@ -503,7 +509,6 @@ def step(S, H, C, torque, speed, accel, dt):
         S[N_GAPS] += 1.0
         dt = C[DT_NOM]
     g = G_MPS2
-    use_rate = C[GATES] != 0.0
     relock = C[RELOCK]
     # a one-sample spike within the plausibility limits is held back until the next sample shows it was one: no
     # innovation gate sees the inputs, and +-4 m/s^2 spikes on the accelerometer cost the point-mass fault trace
@@ -523,6 +528,7 @@ def step(S, H, C, torque, speed, accel, dt):
     xp_v = xp_t = xp_k = f12 = ds = 0.0
     pp11 = pp12 = pp13 = pp22 = pp23 = 0.0
     pp33 = 1.0
+    curv = C[CURV_VAR_M] > 0.0
     v = S[V]
     if v != v:
         if z == z:
@@ -553,7 +559,6 @@ def step(S, H, C, torque, speed, accel, dt):
         if moving:
             S[V] = v + dt * acc
         p11, p12, p22 = S[P11], S[P12], S[P22]
-        curv = C[CURV_VAR_M] > 0.0
         p13, p23, p33 = S[P13], S[P23], S[P33]
         # the grade is a function of position: it drifts with the distance travelled, not with time
         q22 = C[GRADE_VAR_M] * abs(v) * dt
@@ -637,14 +642,13 @@ def step(S, H, C, torque, speed, accel, dt):
     # block's oldest samples go to the regression, smoothed over at least the lag's later samples
     n = int(S[RING_N])
     b = RING0 + RING_W * ((int(S[RING_HEAD]) + n) % RING_MAX)
-    curv3 = C[CURV_VAR_M] > 0.0
     H[b + R_T], H[b + R_Z], H[b + R_DT] = T, z, dt
     H[b + R_FIN], H[b + R_FOK] = S[F_IN], S[F_OK]
     H[b + R_XF], H[b + R_XF + 1], H[b + R_XF + 2] = S[V], S[TH], S[KAP]
     H[b + R_PF], H[b + R_PF + 1], H[b + R_PF + 3] = S[P11], S[P12], S[P22]
-    H[b + R_PF + 2] = S[P13] if curv3 else 0.0
-    H[b + R_PF + 4] = S[P23] if curv3 else 0.0
-    H[b + R_PF + 5] = S[P33] if curv3 else 1.0
+    H[b + R_PF + 2] = S[P13] if curv else 0.0
+    H[b + R_PF + 4] = S[P23] if curv else 0.0
+    H[b + R_PF + 5] = S[P33] if curv else 1.0
     H[b + R_XP], H[b + R_XP + 1], H[b + R_XP + 2] = xp_v, xp_t, xp_k
     H[b + R_PP], H[b + R_PP + 1], H[b + R_PP + 2] = pp11, pp12, pp13
     H[b + R_PP + 3], H[b + R_PP + 4], H[b + R_PP + 5] = pp22, pp23, pp33
@@ -673,11 +677,7 @@ def estimate(S, C, out):
         n_hist = C[N_HIST]
         moved = S[MOVED] != 0.0
         th_win = (th + S[HSUM]) / (n_hist + 1.0) if C[N_BUF] > 0.0 and n_hist > 0.0 and moved else th
-        if C[FUSED] != 0.0:
-            al = min(max(S[MB] / c, 0.0), 1.0)
-            out[1] = al * th + (1.0 - al) * th_win
-        else:
-            out[1] = th_win
+        out[1] = _gravity_slope(S, C, th, th_win)
     out[2] = math.sqrt(min(S[PC] * infl, C[P0_C])) * C[M_REF]  # never above the prior
     var_th = S[P22]
     if C[FUSED] != 0.0:

@@ -46,6 +46,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
     SMOOTH_L, SMOOTH_NB, ACC_PER_NOISE, F_PREV, NOISE_F, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
+    EVID_MIN, DISAGREE,
 )
 from .fixed_lag_kernel import (
     R_DS, R_DT, R_F12, R_FIN, R_FOK, R_LINK, R_PF, R_PP, R_T, R_XF, R_XP, R_XS, R_Z, smooth_ring,
@@ -54,6 +55,8 @@ from .fused_kernel import fused_mass_step as _fused_mass_step
 from .input_faults import JUMP_STATE, STUCK_STATE, jump_reset, jump_step, stuck_reset, stuck_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
 
+DISAGREE_ALONE = 1e9
+"""DISAGREE of a filter outside a geometry bank: every sample is evidence (a lone filter's score is only reported)."""
 ALPHA_PRIOR = 0.5
 """fused: the prior weight of the slope under the sensors in the slope gravity acts on."""
 
@@ -128,6 +131,7 @@ def reset(S, H, C):
     S[PB] = C[P0_B]
     S[NIS] = 1.0  # its expected value until the first speed correction (an output is never NaN)
     S[F_PREV] = math.nan
+    S[DISAGREE] = DISAGREE_ALONE
     if C[ACC_PER_NOISE] > 0.0:  # start where the fixed setting is
         S[NOISE_F] = C[ACC_VAR] / (C[ACC_PER_NOISE] * C[ACC_PER_NOISE])
     stuck_reset(S[STUCK_ST:STUCK_ST + STUCK_STATE])
@@ -381,10 +385,11 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         # holds the start-up guess (a window member's slope is then partly an assumption, not its geometry: the
         # bank caps what that early evidence may decide)
         nll = 0.5 * (min(e_s * e_s / s_s, 25.0) + math.log(s_s)) / C[CORR_N]
-        if S[DIST] - S[DIST0] > C[N_BUF] * C[HIST_DS]:
-            S[SCORE] += nll
-        else:
-            S[SCORE_EARLY] += nll
+        if C[EVID_MIN] == 0.0 or S[DISAGREE] >= C[EVID_MIN]:
+            if S[DIST] - S[DIST0] > C[N_BUF] * C[HIST_DS]:
+                S[SCORE] += nll
+            else:
+                S[SCORE_EARLY] += nll
     if C[FUSED] == 0.0 and not S[SPREAD] < C[MAX_SPREAD]:
         return
     if C[FUSED] == 0.0 and S[AMBIG] > C[MAX_AMBIG]:

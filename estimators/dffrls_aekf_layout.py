@@ -90,7 +90,8 @@ EARLY_KEPT = 80  # fused with BLEND_EARLY: the share of alpha's early deviation 
 SMOOTH_L = 81  # fixed-lag smoothing: the regression runs this many samples behind the slope layer (0: at once)
 SMOOTH_NB = 82  # ... one backward pass per this many new samples (estimators.fixed_lag_kernel)
 ACC_PER_NOISE = 83  # > 0: the slope layer's accelerometer std is this times the accelerometer noise read online
-CHAIN_SET = 84  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+EVID_MIN = 84  # the geometry bank's evidence counts only while its members' slopes differ by at least this (rad)
+CHAIN_SET = 85  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8
@@ -185,7 +186,9 @@ RING_HEAD = 92  # fixed-lag smoothing: the ring's oldest record's slot, and how 
 RING_N = 93
 F_PREV = 94  # the last valid accelerometer sample, and the running mean of half the squared sample-to-sample change
 NOISE_F = 95  #   (the accelerometer's noise variance, read online; ACC_PER_NOISE)
-CHAIN_ST = 96  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
+DISAGREE = 96  # written by the geometry bank before each step: the spread (max - min, unweighted) of its members'
+#   slopes gravity acts on (rad); outside a bank it stays at DISAGREE_ALONE
+CHAIN_ST = 97  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
 #   low-pass of its load acceleration (3 slots), that acceleration, its force-balance evidence (negative log-lik.)
 CHAIN_ST_W = 7
 N_S = CHAIN_ST + CHAIN_ST_W * MAX_CHAINS

@@ -9,7 +9,9 @@ import math
 
 import numpy as np
 
-from .dffrls_aekf_kernel import AMBIG, EARLY_CAP, EST_SCORE, N_EST, SCORE, SCORE_EARLY, TH_TRAIN, estimate, step
+from .dffrls_aekf_kernel import (
+    AMBIG, DISAGREE, EARLY_CAP, EST_SCORE, N_EST, SCORE, SCORE_EARLY, TH_TRAIN, estimate, step,
+)
 from .numba_shim import njit
 
 __all__ = ["ambiguity", "bank_estimate", "bank_run", "bank_step", "bank_steps", "member_score", "mix",
@@ -102,9 +104,19 @@ def ambiguity(SS, CC, w):
 def bank_step(SS, HH, CC, torque, speed, accel, dt, w):
     """One sample through every member, each told the members' ambiguity of the sample before (``w``: scratch of
     k, allocated once by the caller)."""
-    amb = ambiguity(SS, CC, w) if SS.shape[0] > 1 else 0.0
-    for i in range(SS.shape[0]):
+    k = SS.shape[0]
+    amb = ambiguity(SS, CC, w) if k > 1 else 0.0
+    # how far apart the members' slopes are, unweighted: where they agree (a level or uniform grade) the force
+    # balance cannot tell the geometries apart, and their evidence then only ranks their noise (EVID_MIN)
+    lo = SS[0, TH_TRAIN]
+    hi = lo
+    for i in range(1, k):
+        lo = min(lo, SS[i, TH_TRAIN])
+        hi = max(hi, SS[i, TH_TRAIN])
+    for i in range(k):
         SS[i, AMBIG] = amb
+        if k > 1:
+            SS[i, DISAGREE] = hi - lo
         step(SS[i], HH[i], CC[i], torque, speed, accel, dt)
 
 

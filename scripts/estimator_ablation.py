@@ -54,6 +54,8 @@ VARIANTS: list[tuple[str, str, dict]] = [
     ("- missing speed filled with the predicted speed (filters paused, as before session 24)", "dffrls-aekf",
      {"fill_missing_speed": False}),
     ("- session 24's early-evidence cap (1 nat, as before)", "dffrls-aekf", {"max_early_evidence": 1.0}),
+    ("- evidence only where the geometries disagree (every sample counted, as before session 27)", "dffrls-aekf",
+     {"evidence_min_disagreement_rad": 0.0}),
     ("- clamped mass moves the offset with it (projection)", "dffrls-aekf", {"clamp_projection": False}),
     ("- grade curvature state (the paper's two-state slope EKF)", "dffrls-aekf", {"grade_curvature_std": 0.0}),
     ("- spike / innovation gates", "dffrls-aekf", {"gates": False}),

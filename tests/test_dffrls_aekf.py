@@ -228,7 +228,9 @@ def test_chain_bank_finds_the_chains_and_keeps_the_mass(name: str) -> None:
             else:
                 assert getattr(est, "members", [est])[0].chain_weights.tolist() == [1.0]
         if chain_m > 2.5:
-            assert errors["bank"] < 6.0 and errors["one"] > 9.0  # the one pendulum's failure the bank removes
+            # the one pendulum's failure the bank removes (`dffrls-aekf`'s one pendulum: 11.1 % before session 27's
+            # evidence threshold of the geometry bank, 8.4 % with it; the bank's 0.9 -> 1.0 %)
+            assert errors["bank"] < 6.0 and errors["one"] > 8.0 and errors["one"] > 2.0 * errors["bank"]
         else:
             assert errors["bank"] < 4.0
 

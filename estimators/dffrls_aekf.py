@@ -298,7 +298,13 @@ class DFFRLSAEKFConfig:
         median / p90 / p95 5.63 / 17.07 / 23.05, 5.61 / 17.09 / 23.05, 5.61 / 17.09 / 23.05, 5.63 / 17.72 / 23.18 %);
         point-mass scenarios × ten sensor seeds median / max 1.76 / 6.3 → 1.68 / 6.2 %, with every sensor
         imperfection ×2 3.89 / 25.9 → 3.17 / 11.1 %, ×3 8.70 / 37.8 → 6.56 / 29.0 % (docs/estimation.md, session 27).
-        A lone filter counts every sample.
+        A lone filter counts every sample. ``fused`` (one filter, a learnt blend α of the two slopes) uses the same
+        setting for the same reason: its blend learns only while the slope under the sensors and the window's differ
+        by at least this much (where they agree the blend's regressor is the slope layer's noise, which pulls α
+        towards the window); plant tuning runs unchanged (median / p95 6.48 / 25.90 → 6.50 / 25.90 %), point-mass
+        runs 1000-1059 p90 14.13 → 12.69 %, the scenarios × ten seeds at ×1 / ×2 / ×3 the sensors' imperfections
+        p90 5.84 → 5.39, 9.95 → 8.28, 16.51 → 12.27 %. The env keeps 0 for ``fused``
+        (:data:`uuom_gym.envs.observers.PLANT_BLEND_OPTIONS`).
     prior_curvature_std_per_m : float
         Prior (and cap) of the curvature's standard deviation (rad/m; 0.01: 6° of grade change over 10 m).
     max_curvature_per_m : float

@@ -9,7 +9,7 @@ from uuom_core.vehicle import G_MPS2
 
 from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MAX_AMBIG, MB, MC, MD, MIN_ACC, MU_MAX,
                                  N_MASS, OFF_FORGET, P0_B, P0_C, P0_D, PB, PC, PCB, PCD, PD, PDB, PROJECT_CLAMP, Q_C,
-                                 R_M, RES_VAR, SIGMA, FUSED_SPREAD, MAX_SPREAD, SPREAD)
+                                 R_M, RES_VAR, SIGMA, FUSED_SPREAD, MAX_SPREAD, SPREAD, EVID_MIN)
 from .numba_shim import njit
 
 __all__ = ["fused_mass_step"]
@@ -71,10 +71,12 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
     p13 -= q1 * q3 / s_m
     p22 -= q2 * q2 / s_m
     p23 -= q2 * q3 / s_m
-    if learn_b and consider:
+    if learn_b and consider and (C[EVID_MIN] == 0.0 or abs(sin_loc - sin_win) >= C[EVID_MIN]):
         # beta only at steady speed (grade changes are its information), c only from accelerations: a residual
         # of the start or stop dynamics must not be read as a gravity blend; else beta is a considered parameter
-        # too (zero gain, variance kept)
+        # too (zero gain, variance kept). Nor where the two slopes agree (EVID_MIN): there the regressor h3 is the
+        # slope layer's noise alone, and fitting it pulls beta towards 0, the window (the geometry bank's noise
+        # ranking in regression form; docs/estimation.md, session 27)
         b += q3 / s_m * e
         p33 -= q3 * q3 / s_m
     # PD repair: floors on the diagonal, then shrink the correlations until every leading minor is positive

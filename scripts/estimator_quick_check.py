@@ -39,7 +39,7 @@ import collections
 import json
 import multiprocessing
 import sys
-from dataclasses import fields, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -78,12 +78,9 @@ def decimate(tr: Trace, k: int) -> Trace:
 def scaled_scenario_run(spec: RunSpec, scale: float) -> Trace:
     """The point-mass scenario of ``spec`` with its sensors' noise, bias spreads, quantisation and vibration all
     multiplied by ``scale`` (0: perfect sensors; its faults, if any, kept)."""
-    from uuom_gym.sim.point_mass import point_mass_scenario, simulate_point_mass, with_options
+    from uuom_gym.sim.point_mass import simulate_point_mass, with_sensor_scale
 
-    sc = point_mass_scenario(spec.scenario)
-    sensors = replace(sc.sensors, **{f.name: scale * getattr(sc.sensors, f.name) for f in fields(sc.sensors)
-                                      if f.name != "vibration_hz"})
-    return simulate_point_mass(with_options(sc, sensors=sensors), seed=spec.seed)
+    return simulate_point_mass(with_sensor_scale(spec.scenario, scale), seed=spec.seed)
 
 
 def clean_scenario_run(spec: RunSpec) -> Trace:

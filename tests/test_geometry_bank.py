@@ -247,26 +247,15 @@ def test_the_mass_waits_for_the_geometry() -> None:
     assert mass_new < 0.07 and mass_new < mass_old - 0.01
 
 
-def _scaled_scenario(name: str, seed: int, scale: float) -> Trace:
-    """A point-mass scenario with every sensor imperfection times ``scale`` (as ``estimator_quick_check.py
-    --sensor-scale``)."""
-    from dataclasses import fields, replace
-
-    from uuom_gym.sim.point_mass import point_mass_scenario, simulate_point_mass, with_options
-
-    sc = point_mass_scenario(name)
-    sensors = replace(sc.sensors, **{f.name: scale * getattr(sc.sensors, f.name) for f in fields(sc.sensors)
-                                      if f.name != "vibration_hz"})
-    return simulate_point_mass(with_options(sc, sensors=sensors), seed=seed)
-
-
 def test_evidence_counts_only_where_the_geometries_disagree() -> None:
     # point-mass resistance-mismatch scenario, sensor seed 3, twice the sensor noise: 48 s of level track, then a
     # grade. On the level the point member reads the slope layer's noisy grade and the window member its average, so
     # counting those samples as evidence handed the window member (the wrong geometry here) the whole weight, and its
     # mass then learnt the grade's onset as mass (+25.8 %); counted only where the members' slopes differ, the bank
     # keeps an open mind on the level and the mass stays within a few per cent
-    tr = _scaled_scenario("pm-resistance-mismatch", 3, 2.0)
+    from uuom_gym.sim.point_mass import simulate_point_mass, with_sensor_scale
+
+    tr = simulate_point_mass(with_sensor_scale("pm-resistance-mismatch", 2.0), seed=3)
     t = tr["t_s"]
     gated = GeometryBank()
     assert gated.config.evidence_min_disagreement_rad == pytest.approx(0.002)

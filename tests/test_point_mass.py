@@ -119,3 +119,20 @@ def test_bad_scenarios_are_one_clear_error() -> None:
         simulate_point_mass("pm-section1", seed=1.5)
     with pytest.raises(PointMassError, match="stuck channel"):
         PointMassFaults(stuck_channel="gyro")
+
+
+def test_sensor_scale_multiplies_every_imperfection() -> None:
+    import dataclasses
+
+    from uuom_gym.sim.point_mass import PointMassSensors, point_mass_scenario, with_sensor_scale
+
+    base = point_mass_scenario("pm-section1")
+    twice = with_sensor_scale("pm-section1", 2.0)
+    for f in dataclasses.fields(base.sensors):
+        a, b = getattr(base.sensors, f.name), getattr(twice.sensors, f.name)
+        assert b == (a if f.name == "vibration_hz" else 2.0 * a), f.name
+    assert with_sensor_scale(base, 0.0).sensors == PointMassSensors.perfect()
+    assert twice.grade == base.grade and twice.faults == base.faults  # the physics and the faults kept
+    for bad in (-1.0, math.nan, math.inf, True, "2"):
+        with pytest.raises(PointMassError, match="sensor scale"):
+            with_sensor_scale("pm-section1", bad)

@@ -77,10 +77,14 @@ _MASS_GATE_OPTION_NAMES: dict[str, frozenset[str]] = {
 """Options that state the mass gate themselves: given any of them, the plant's entry above is not added (per
 estimator, so a ``fused`` user's ``min_accel_mps2`` does not turn its spread gate on)."""
 
-PLANT_BLEND_OPTIONS: dict[str, dict[str, Any]] = {"fused": {"blend_from_start": False}}
-"""``fused`` in the env learns its gravity blend only once its slope window holds measured slopes, as every RL
-table's ``fused`` rows were computed with; offline the blend learns from the first metre moved since round 2,
-session 25 (``blend_from_start``: the plant's tuning runs' slope RMSE median 0.55 -> 0.29 deg)."""
+PLANT_BLEND_OPTIONS: dict[str, dict[str, Any]] = {
+    "fused": {"blend_from_start": False, "evidence_min_disagreement_rad": 0.0},
+}
+"""``fused`` in the env learns its gravity blend only once its slope window holds measured slopes, and on every
+sample there, as every RL table's ``fused`` rows were computed with; offline the blend learns from the first metre
+moved since round 2, session 25 (``blend_from_start``: the plant's tuning runs' slope RMSE median 0.55 -> 0.29 deg),
+and only where the two slopes differ by 0.002 rad since session 27 (``evidence_min_disagreement_rad``: neutral on the
+plant's tuning runs). Each entry is added unless the observer options state that option."""
 
 FAULT_FREE_SENSOR_OPTIONS: dict[str, dict[str, Any]] = {
     "mmae": {"torque_jump_fraction": 0.0, "stuck_repeats": 0},
@@ -242,7 +246,8 @@ def make_observer(name: str, vehicle: VehicleParams, options: Mapping[str, Any] 
     options = _unless_stated(options, PLANT_GRADE_OPTIONS.get(name, {}), _GRADE_OPTION_NAMES)
     options = _unless_stated(options, PLANT_MASS_GATE_OPTIONS.get(name, {}),
                              _MASS_GATE_OPTION_NAMES.get(name, frozenset()))
-    options = _unless_stated(options, PLANT_BLEND_OPTIONS.get(name, {}), frozenset({"blend_from_start"}))
+    for key, value in PLANT_BLEND_OPTIONS.get(name, {}).items():
+        options = _unless_stated(options, {key: value}, frozenset({key}))
     if fault_free_sensors:
         fault_free = FAULT_FREE_SENSOR_OPTIONS.get(name, {})
         options = _unless_stated(options, fault_free, frozenset(fault_free))

@@ -425,8 +425,20 @@ def with_options(scenario: str | PointMassScenario, **changes) -> PointMassScena
     return replace(sc, **changes)
 
 
+def with_sensor_scale(scenario: str | PointMassScenario, scale: float) -> PointMassScenario:
+    """A copy of a scenario whose sensors' noise, bias spreads, quantisation and vibration amplitude are all
+    multiplied by ``scale`` (0: perfect sensors; the vibration's frequency and any faults kept): the same physics
+    read by better or worse sensors (``scripts/estimator_quick_check.py --sensor-scale``)."""
+    if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and 0.0 <= scale < math.inf):
+        raise PointMassError(f"sensor scale must be a finite number >= 0, got {scale!r}")
+    sc = point_mass_scenario(scenario) if isinstance(scenario, str) else scenario
+    sensors = replace(sc.sensors, **{f.name: scale * getattr(sc.sensors, f.name) for f in fields(sc.sensors)
+                                      if f.name != "vibration_hz"})
+    return replace(sc, sensors=sensors)
+
+
 __all__ = [
     "POINT_MASS_SCENARIOS", "SENSOR_CHANNELS", "GradeProfile", "PointMassError", "PointMassFaults",
     "PointMassScenario", "PointMassSensors", "SpeedPlan", "point_mass_scenario", "simulate_point_mass",
-    "with_options",
+    "with_options", "with_sensor_scale",
 ]

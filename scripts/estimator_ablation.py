@@ -66,6 +66,8 @@ VARIANTS: list[tuple[str, str, dict]] = [
     ("fused without the spread gate on its mass (as before session 24)", "fused", {"fused_spread_gate": False}),
     ("fused, its blend learnt only once the window holds measured slopes (as before session 25)", "fused",
      {"blend_from_start": False}),
+    ("fused, its blend learnt on every steady-speed sample (as before session 27)", "fused",
+     {"evidence_min_disagreement_rad": 0.0}),
 ]
 
 

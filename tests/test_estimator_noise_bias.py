@@ -53,3 +53,18 @@ def test_bad_arguments_are_named_before_any_run(argv, match, capsys):
 def test_unknown_estimator_is_refused_before_any_run():
     with pytest.raises(Exception, match="no-such"):
         nb.main(["--estimator", "no-such", "--workers", "1"])
+
+
+def test_encoder_noise_is_read_from_the_differences():
+    import numpy as np
+
+    rng = np.random.default_rng(0)
+    v = np.linspace(0.0, 1.0, 20000) + rng.normal(0.0, 0.01, 20000)
+    v[::97] = np.nan  # dropouts do not spoil it
+    assert nb.encoder_noise_mps(v) == pytest.approx(0.01, rel=0.05)
+
+
+def test_tuning_runs_report(capsys):
+    assert nb.main(["--tuning-runs", "2", "--world", "point", "--workers", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "point runs 1000-1001: signed mass error % at 30 s mean" in out and "below / above its median" in out

@@ -27,7 +27,7 @@ import json
 import multiprocessing
 import sys
 from dataclasses import fields, replace
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -71,14 +71,18 @@ def tuning_run_errors(job: tuple[str, int, str, dict[str, Any]]) -> list[float]:
     return [float((s.mass_kg[i] / tr["mass_kg"][i] - 1.0) * 100.0), encoder_noise_mps(tr["speed_mps"])]
 
 
+def _map(fn: Callable[[Any], list[float]], jobs: list, workers: int) -> np.ndarray:
+    """``fn`` over ``jobs``, in a pool of ``workers`` processes when more than one; rows as an array."""
+    if workers > 1:
+        with multiprocessing.Pool(workers) as pool:
+            return np.array(pool.map(fn, jobs))
+    return np.array([fn(j) for j in jobs])
+
+
 def _tuning_report(args: argparse.Namespace, options: dict[str, Any]) -> None:
     jobs = [(args.world, 1000 + i, args.estimator, options) for i in range(args.tuning_runs)]
-    if args.workers > 1:
-        with multiprocessing.Pool(args.workers) as pool:
-            rows = pool.map(tuning_run_errors, jobs)
-    else:
-        rows = [tuning_run_errors(j) for j in jobs]
-    r = np.array(rows)
+    r = _map(tuning_run_errors, jobs, args.workers)
+    rows = r
     quiet = r[:, 1] <= np.median(r[:, 1])
     print(f"{args.estimator} {json.dumps(options)}, {args.world} runs 1000-{999 + len(rows)}: signed mass error % at "
           f"30 s mean {r[:, 0].mean():+.2f}, median {np.median(r[:, 0]):+.2f}; runs with the encoder noise at or "
@@ -130,12 +134,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     jobs = [(sc, seed, args.sensor_scale, per_field, args.estimator, options)
             for sc in scenarios for seed in range(args.seeds)]
-    if args.workers > 1:
-        with multiprocessing.Pool(args.workers) as pool:
-            rows = pool.map(signed_errors, jobs)
-    else:
-        rows = [signed_errors(j) for j in jobs]
-    r = np.array(rows)
+    r = _map(signed_errors, jobs, args.workers)
+    rows = r
     at = " / ".join(f"{x:g}" for x in TIMES_S)
     print(f"{args.estimator} {json.dumps(options)}, sensors x{args.sensor_scale:g} {json.dumps(per_field)}, "
           f"{len(rows)} runs: signed mass error % at {at} s mean "

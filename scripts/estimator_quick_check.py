@@ -39,7 +39,6 @@ import collections
 import json
 import multiprocessing
 import sys
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -65,8 +64,7 @@ def _specs(n: int, n_tuning: int = 16, scenario_seeds: int = 1, n_point_tuning: 
     out += [("point", RunSpec("point", f"point-{i:03d}", i, i, "point")) for i in range(n)]
     scenarios = [s for s in protocol_runs(0, 0, paper_seeds=1, fault_seeds=0) if s.world == "point"]
     # seed 0 is the protocol's run; further seeds draw other sensor noise, biases and faults on the same physics
-    out += [(f"pm-sc:{s.scenario}", s if seed == 0 else replace(s, name=f"{s.name[:-3]}-s{seed}", seed=seed))
-            for seed in range(scenario_seeds) for s in scenarios]
+    out += [(f"pm-sc:{s.scenario}", s.with_sensor_seed(seed)) for seed in range(scenario_seeds) for s in scenarios]
     return out
 
 
@@ -81,11 +79,6 @@ def scaled_scenario_run(spec: RunSpec, scale: float) -> Trace:
     from uuom_gym.sim.point_mass import simulate_point_mass, with_sensor_scale
 
     return simulate_point_mass(with_sensor_scale(spec.scenario, scale), seed=spec.seed)
-
-
-def clean_scenario_run(spec: RunSpec) -> Trace:
-    """The point-mass scenario of ``spec`` with perfect sensors (its faults, if any, kept)."""
-    return scaled_scenario_run(spec, 0.0)
 
 
 def _score(job: tuple[str, RunSpec, list[list[Any]], int, float, float]) -> list[tuple[str, str, float, float]]:

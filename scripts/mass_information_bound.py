@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import replace
 
 import numpy as np
 
@@ -75,8 +74,7 @@ def main(argv: list[str] | None = None) -> int:
             if s.world != "point":
                 continue
             # seed 0 is the protocol's run; further seeds draw other sensor noise, biases and faults
-            e = np.array([_both(make_run(s if k == 0 else replace(s, name=f"{s.name[:-3]}-s{k}", seed=k)))
-                          for k in range(n_seeds)])
+            e = np.array([_both(make_run(s.with_sensor_seed(k))) for k in range(n_seeds)])
             pooled += [tuple(r) for r in e]
             if n_seeds == 1:
                 print(f"| `{s.scenario}` | {e[0, 0]:.1f} | {e[0, 2]:.1f} |", flush=True)

@@ -106,3 +106,13 @@ def test_full_protocol_small_but_every_estimator(tmp_path: Path) -> None:
     rows = run_protocol(specs, make_run, names, workers=2, cache=tmp_path / "rows.jsonl")
     assert len(rows) == len(specs) * len(names)
     assert all(r.get("finite", False) for r in rows), [r["estimator"] for r in rows if not r.get("finite")]
+
+
+def test_a_run_with_another_sensor_seed_keeps_its_physics_and_renames_itself() -> None:
+    spec = next(s for s in protocol_runs(0, 0, paper_seeds=1, fault_seeds=0) if s.scenario == "pm-section1")
+    assert spec.with_sensor_seed(spec.seed) is spec
+    other = spec.with_sensor_seed(12)
+    assert other.seed == 12 and other.name == spec.name.rpartition("-s")[0] + "-s12"
+    assert (other.group, other.index, other.world, other.scenario, other.duration_s) == (
+        spec.group, spec.index, spec.world, spec.scenario, spec.duration_s)
+    assert RunSpec("plant", "plant-003", 3, 3, "plant").with_sensor_seed(5).name == "plant-003-s5"

@@ -76,7 +76,7 @@ def test_clean_sensors_leave_only_the_physics():
     from uuom_gym.sim.protocol_runs import make_run, protocol_runs
 
     spec = next(s for s in protocol_runs(0, 0, paper_seeds=1, fault_seeds=0) if s.scenario == "pm-section1")
-    a, b = qc.clean_scenario_run(spec), qc.clean_scenario_run(replace(spec, seed=7))
+    a, b = qc.scaled_scenario_run(spec, 0.0), qc.scaled_scenario_run(replace(spec, seed=7), 0.0)
     for c in ("torque_nm", "speed_mps", "accel_mps2"):
         np.testing.assert_array_equal(a[c], b[c])
     np.testing.assert_allclose(a["speed_mps"], a["true_speed_mps"], atol=0.0)
@@ -99,6 +99,7 @@ def test_negative_run_counts_are_refused_before_any_run(capsys):
 def test_sensor_scale_scales_every_imperfection():
     """``--sensor-scale K``: K = 1 is the scenario as the protocol records it, K = 0 the perfect sensors of
     ``--clean-sensors``, and K = 2 reads twice as far from the truth (noise, bias, quantisation, vibration)."""
+    from uuom_gym.sim.point_mass import PointMassSensors, simulate_point_mass, with_options
     from uuom_gym.sim.protocol_runs import make_run, protocol_runs
 
     spec = next(s for s in protocol_runs(0, 0, paper_seeds=1, fault_seeds=0) if s.scenario == "pm-section1")
@@ -106,8 +107,8 @@ def test_sensor_scale_scales_every_imperfection():
     one, two = qc.scaled_scenario_run(spec, 1.0), qc.scaled_scenario_run(spec, 2.0)
     for c in ("torque_nm", "speed_mps", "accel_mps2"):
         np.testing.assert_array_equal(one[c], own[c])
-    np.testing.assert_array_equal(qc.scaled_scenario_run(spec, 0.0)["accel_mps2"],
-                                  qc.clean_scenario_run(spec)["accel_mps2"])
+    perfect = simulate_point_mass(with_options(spec.scenario, sensors=PointMassSensors.perfect()), seed=spec.seed)
+    np.testing.assert_array_equal(qc.scaled_scenario_run(spec, 0.0)["accel_mps2"], perfect["accel_mps2"])
     dv1 = np.std(one["speed_mps"] - one["true_speed_mps"])
     dv2 = np.std(two["speed_mps"] - two["true_speed_mps"])
     assert 1.7 < dv2 / dv1 < 2.3, dv2 / dv1

@@ -118,7 +118,12 @@ class PointMassSensors:
     def perfect(cls) -> PointMassSensors:
         """Sensors that read the simulated truth: no noise, bias, quantisation or vibration (what is left of an
         estimator's error on them is its model's)."""
-        return cls(**{f.name: 0.0 for f in fields(cls) if f.name != "vibration_hz"})
+        return cls().scaled(0.0)
+
+    def scaled(self, k: float) -> PointMassSensors:
+        """These sensors with every imperfection (noise, bias spread, quantisation, vibration amplitude) times
+        ``k``; the vibration's frequency kept."""
+        return replace(self, **{f.name: k * getattr(self, f.name) for f in fields(self) if f.name != "vibration_hz"})
 
 
 @dataclass(frozen=True)
@@ -432,9 +437,7 @@ def with_sensor_scale(scenario: str | PointMassScenario, scale: float) -> PointM
     if not (isinstance(scale, (int, float)) and not isinstance(scale, bool) and 0.0 <= scale < math.inf):
         raise PointMassError(f"sensor scale must be a finite number >= 0, got {scale!r}")
     sc = point_mass_scenario(scenario) if isinstance(scenario, str) else scenario
-    sensors = replace(sc.sensors, **{f.name: scale * getattr(sc.sensors, f.name) for f in fields(sc.sensors)
-                                      if f.name != "vibration_hz"})
-    return replace(sc, sensors=sensors)
+    return replace(sc, sensors=sc.sensors.scaled(scale))
 
 
 __all__ = [

@@ -76,6 +76,14 @@ class RunSpec:
     fault: str = ""
     duration_s: float = 60.0
 
+    def with_sensor_seed(self, seed: int) -> RunSpec:
+        """The same run read by sensors drawn with ``seed`` (other noise, biases and faults on the same physics),
+        named ``<name without its -s suffix>-s<seed>``; itself when ``seed`` is its own."""
+        if seed == self.seed:
+            return self
+        base, sep, _ = self.name.rpartition("-s")
+        return replace(self, name=f"{base if sep else self.name}-s{seed}", seed=seed)
+
 
 def protocol_runs(
     n_plant: int = 200, n_point: int = 200, *, duration_s: float = 60.0, paper_seeds: int = 3, fault_seeds: int = 2

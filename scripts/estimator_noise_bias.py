@@ -26,7 +26,6 @@ import argparse
 import json
 import multiprocessing
 import sys
-from dataclasses import fields, replace
 from typing import Any, Callable
 
 import numpy as np
@@ -34,6 +33,7 @@ import numpy as np
 import estimators
 from uuom_gym.sim.point_mass import (POINT_MASS_SCENARIOS, PointMassSensors, simulate_point_mass, with_options,
                                      with_sensor_scale)
+from uuom_gym.sim.sensor_factors import scale_sensor_fields
 
 TIMES_S = (10.0, 30.0, 59.0)
 
@@ -42,7 +42,7 @@ def signed_errors(job: tuple[str, int, float, dict[str, float], str, dict[str, A
     """One scenario run: the signed mass error (%) at :data:`TIMES_S`, then the max |error| after 10 s."""
     scenario, seed, scale, per_field, name, options = job
     sc = with_sensor_scale(scenario, scale)
-    sc = with_options(sc, sensors=replace(sc.sensors, **{k: v * getattr(sc.sensors, k) for k, v in per_field.items()}))
+    sc = with_options(sc, sensors=scale_sensor_fields(sc.sensors, per_field))
     tr = simulate_point_mass(sc, seed=seed)
     s = estimators.make(name, **options).run(tr)
     t = tr["t_s"]
@@ -104,7 +104,6 @@ def main(argv: list[str] | None = None) -> int:
                     help="score the protocol's runs 1000..1000+N-1 of --world instead of the scenarios")
     ap.add_argument("--world", choices=("plant", "point"), default="plant")
     args = ap.parse_args(argv)
-    names = {f.name for f in fields(PointMassSensors)}
     try:
         options = json.loads(args.options)
         per_field = json.loads(args.scale_fields)
@@ -112,12 +111,10 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--options / --scale-fields must be JSON objects: {exc}")
     if not isinstance(options, dict) or not isinstance(per_field, dict):
         ap.error("--options / --scale-fields must be JSON objects")
-    unknown = sorted(set(per_field) - names)
-    if unknown:
-        ap.error(f"--scale-fields: unknown sensor field(s) {unknown}; choose from {sorted(names)}")
-    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and 0.0 <= v < float("inf")
-               for v in per_field.values()):
-        ap.error("--scale-fields: every factor must be a finite number >= 0")
+    try:
+        scale_sensor_fields(PointMassSensors(), per_field)
+    except ValueError as exc:
+        ap.error(f"--scale-fields: {exc}")
     if not (0.0 <= args.sensor_scale < float("inf")):
         ap.error(f"--sensor-scale must be a finite number >= 0, got {args.sensor_scale}")
     scenarios = args.scenarios or list(POINT_MASS_SCENARIOS)

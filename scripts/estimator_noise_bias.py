@@ -31,8 +31,8 @@ from typing import Any, Callable
 import numpy as np
 
 import estimators
-from uuom_gym.sim.point_mass import (POINT_MASS_SCENARIOS, PointMassSensors, simulate_point_mass, with_options,
-                                     with_sensor_scale)
+from uuom_gym.sim.point_mass import (POINT_MASS_SCENARIOS, PointMassError, PointMassSensors, simulate_point_mass,
+                                     with_options, with_sensor_scale)
 from uuom_gym.sim.sensor_factors import scale_sensor_fields
 
 TIMES_S = (10.0, 30.0, 59.0)
@@ -115,8 +115,10 @@ def main(argv: list[str] | None = None) -> int:
         scale_sensor_fields(PointMassSensors(), per_field)
     except ValueError as exc:
         ap.error(f"--scale-fields: {exc}")
-    if not (0.0 <= args.sensor_scale < float("inf")):
-        ap.error(f"--sensor-scale must be a finite number >= 0, got {args.sensor_scale}")
+    try:
+        with_sensor_scale(POINT_MASS_SCENARIOS["pm-section1"], args.sensor_scale)  # the runs' own check, before any run
+    except PointMassError as exc:
+        ap.error(f"--sensor-scale: {exc}")
     scenarios = args.scenarios or list(POINT_MASS_SCENARIOS)
     bad = sorted(set(scenarios) - set(POINT_MASS_SCENARIOS))
     if bad:

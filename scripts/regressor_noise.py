@@ -102,7 +102,11 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"unknown scenario(s) {bad}")
     if args.seeds < 1:
         ap.error("--seeds must be >= 1")
-    estimators.make("dffrls-aekf", **options, train_length_m=args.train_length_m)  # bad options: refused first
+    member = estimators.make("dffrls-aekf", **options, train_length_m=args.train_length_m)  # bad options: refused
+    if member.config.accel_regressor or not member.config.estimate_mu:
+        # regression_signals rebuilds y and h with the default regression's formula; these two change its form
+        ap.error("--options: accel_regressor and estimate_mu=false change the regression's form, which this "
+                 "diagnostic does not rebuild")
     rows = []
     print(f"# fields {json.dumps(per_field)} (0 in the quiet run), options {json.dumps(options)}, member "
           f"train_length_m={args.train_length_m:g}")

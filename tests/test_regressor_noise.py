@@ -47,6 +47,8 @@ def test_the_signals_are_the_mass_layers_inputs():
     (["--scale-fields", '{"speed_noise_std_mps": -1}'], "finite number >= 0"),
     (["--scenarios", "pm-nowhere"], "unknown scenario"),
     (["--seeds", "0"], "--seeds"),
+    (["--options", '{"accel_regressor": true}'], "regression's form"),
+    (["--options", '{"estimate_mu": false}'], "regression's form"),
 ])
 def test_bad_arguments_are_refused(argv, match, capsys):
     with pytest.raises(SystemExit):

@@ -17,7 +17,9 @@ Prints one line per scenario and configuration (``--per-run``: per run too; max 
 (``--settle S``: after S s), slope RMSE ° against the train-averaged slope), then per group (``tuning`` = plant runs
 1000-1015 (``--tuning N``: the first N from 1000), ``tun-pt`` = point-mass runs from seed 1000 (``--point-tuning N``,
 default none), ``plant``, ``point``, ``pm-sc`` = the scenarios) the median /
-p90 / p95 / max of the mass error and the median / p95 of the slope RMSE.
+p90 / p95 / max of the mass error and the median / p95 of the slope RMSE, and for each configuration how many runs of
+the fault-free scenarios with the vehicle file's running resistance (issue 10's "clean traces") meet both of its
+clean bounds, ≤ 2 % and ≤ 0.15°.
 
 ``--scenario-seeds N`` runs every point-mass scenario with sensor seeds 0..N-1 (seed 0 is the protocol's run; the
 others draw other noise, biases and faults on the same physics): one seed is one draw of the accelerometer's bias,
@@ -44,13 +46,21 @@ from typing import Any
 import numpy as np
 
 from estimators.metrics import error_after_settling, train_slope_deg
+from estimators.protocol_report import TARGET_MASS_MAX_PCT as CLEAN_MASS_PCT
+from estimators.protocol_report import TARGET_SLOPE_RMSE_DEG as CLEAN_SLOPE_DEG
 from estimators.registry import get_class
 from uuom_core.trace import Trace
+from uuom_gym.sim.point_mass import POINT_MASS_SCENARIOS, PointMassFaults, PointMassScenario
 from uuom_gym.sim.protocol_runs import RunSpec, make_run, protocol_runs
 
 DEFAULT_CONFIGS = [["dffrls-aekf", "dffrls-aekf", {}], ["fused", "fused", {}]]
 TUNING_FIRST = 1000
 """Tuning runs are seeds 1000, 1001, ...: never among the protocol's evaluation runs (seeds from 0)."""
+
+
+def is_clean_scenario(sc: PointMassScenario) -> bool:
+    """A scenario of issue 10's "clean traces": no sensor faults and the vehicle file's running resistance."""
+    return sc.faults == PointMassFaults() and sc.running_resistance is None
 
 
 def _specs(n: int, n_tuning: int = 16, scenario_seeds: int = 1, n_point_tuning: int = 0) -> list[tuple[str, RunSpec]]:
@@ -156,7 +166,22 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{group:7s} {label:28s} n={len(a):3d}  mass % median {np.median(m):6.2f} p90 "
               f"{np.percentile(m, 90):6.2f} p95 {np.percentile(m, 95):6.2f} max {m.max():6.1f} | slope deg median "
               f"{np.median(a[:, 1]):.2f} p95 {np.percentile(a[:, 1], 95):.2f}")
+    for label, (met, n) in clean_bounds_met(rows, specs).items():
+        print(f"pm-sc   {label:28s} fault-free scenarios within {CLEAN_MASS_PCT:g} % and {CLEAN_SLOPE_DEG:g} deg: "
+              f"{met} of {n} runs")
     return 0
+
+
+def clean_bounds_met(rows: list[tuple[str, str, float, float]], specs: list[RunSpec]) -> dict[str, tuple[int, int]]:
+    """Per config label: how many point-mass scenario runs without faults and with the vehicle file's running
+    resistance (issue 10's "clean traces") meet both clean bounds, and out of how many such runs."""
+    out: dict[str, tuple[int, int]] = {}
+    for (group, label, mass, slope), spec in zip(rows, specs):
+        if not group.startswith("pm-sc:") or not is_clean_scenario(POINT_MASS_SCENARIOS[group[6:]]):
+            continue
+        met, n = out.get(label, (0, 0))
+        out[label] = (met + int(mass <= CLEAN_MASS_PCT and slope <= CLEAN_SLOPE_DEG), n + 1)
+    return out
 
 
 if __name__ == "__main__":

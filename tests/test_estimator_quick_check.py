@@ -118,3 +118,22 @@ def test_clean_sensors_and_a_sensor_scale_are_one_choice(capsys):
     with pytest.raises(SystemExit):
         qc.main(["--runs", "0", "--tuning", "0", "--clean-sensors", "--sensor-scale", "2"])
     assert "--clean-sensors is --sensor-scale 0" in capsys.readouterr().err
+
+
+def test_clean_scenarios_are_those_without_faults_or_a_resistance_mismatch():
+    from uuom_gym.sim.point_mass import POINT_MASS_SCENARIOS
+
+    clean = {n for n, sc in POINT_MASS_SCENARIOS.items() if qc.is_clean_scenario(sc)}
+    assert clean == set(POINT_MASS_SCENARIOS) - {"pm-sensor-faults", "pm-resistance-mismatch"}
+
+
+def test_clean_bounds_count_only_fault_free_scenarios_and_need_both_bounds():
+    spec = qc._specs(0, 0)[0][1]  # the spec is not read for the count, only carried alongside its row
+    rows = [("pm-sc:pm-section1", "a", 2.0, 0.15),      # on both bounds: met
+            ("pm-sc:pm-section2", "a", 2.01, 0.05),     # mass over
+            ("pm-sc:pm-roadtest", "a", 0.5, 0.151),     # slope over
+            ("pm-sc:pm-sensor-faults", "a", 0.1, 0.01),  # a fault trace: not a clean one
+            ("pm-sc:pm-resistance-mismatch", "a", 0.1, 0.01),
+            ("tuning", "a", 0.1, 0.01),                 # not a scenario
+            ("pm-sc:pm-section1", "b", 0.1, 0.01)]
+    assert qc.clean_bounds_met(rows, [spec] * len(rows)) == {"a": (1, 3), "b": (1, 1)}

@@ -7,10 +7,16 @@ of one policy), and prints on how many tracks the seeds' mean ratio is below 1, 
 95 % bootstrap interval over seeds and tracks (:func:`agents.statistics.bootstrap_ci`), and the mean ratio on heavy
 trains.
 
+``--reference-from FILE`` reads the reference controller from that file only, and the controllers from the others:
+for the same controller run under two env configurations (e.g. other observer options), whose rows carry the same
+name.
+
 Usage::
 
     python scripts/paired_ratio.py runs/span_now_merged/episodes.csv --reference rule-based \\
         --controllers ppo_bare_span_08_13_300k_s0 ppo_bare_span_08_13_300k_s1 ppo_bare_span_08_13_300k_s2
+    python scripts/paired_ratio.py results/rl/offline_observer_in_loop/rb_offline/episodes.csv \\
+        --reference-from results/rl/offline_observer_in_loop/rb_env/episodes.csv --controllers rule-based
 """
 
 from __future__ import annotations
@@ -42,11 +48,13 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("episodes", type=Path, nargs="+", help="episodes.csv of an evaluation or merge (several: concatenated)")
     ap.add_argument("--reference", default="rule-based")
+    ap.add_argument("--reference-from", type=Path, default=None, metavar="FILE",
+                    help="read the reference from this episodes.csv only (the controllers from the others)")
     ap.add_argument("--controllers", nargs="+", required=True, help="one controller, or its training seeds")
     ap.add_argument("--heavy-kg", type=float, default=28_000.0, help="mass above which a train counts as heavy")
     args = ap.parse_args(argv)
     rows = [r for path in args.episodes for r in read_episodes(path)]
-    ref = _trip_times(rows, args.reference)
+    ref = _trip_times(read_episodes(args.reference_from) if args.reference_from else rows, args.reference)
     runs = [_trip_times(rows, c) for c in args.controllers]
     tracks = sorted(set(ref).intersection(*runs))
     ratio = np.array([[run[k][0] / ref[k][0] for k in tracks] for run in runs])  # (seeds, tracks)
@@ -54,7 +62,8 @@ def main(argv: list[str] | None = None) -> int:
     per_track = ratio.mean(axis=0)
     lo, hi = bootstrap_ci(ratio, np.mean)
     mlo, mhi = bootstrap_ci(ratio, np.median)
-    print(f"{len(runs)} run(s) vs {args.reference} on {len(tracks)} tracks both arrived")
+    where = f" of {args.reference_from}" if args.reference_from else ""
+    print(f"{len(runs)} run(s) vs {args.reference}{where} on {len(tracks)} tracks both arrived")
     print(f"  faster on {int((per_track < 1).sum())}/{len(tracks)} tracks (mean over runs)")
     print(f"  mean ratio {ratio.mean():.3f} (95 % CI {lo:.3f}-{hi:.3f}), median {np.median(ratio):.3f} "
           f"({mlo:.3f}-{mhi:.3f})")

@@ -53,6 +53,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--controllers", nargs="+", required=True, help="one controller, or its training seeds")
     ap.add_argument("--heavy-kg", type=float, default=28_000.0, help="mass above which a train counts as heavy")
     args = ap.parse_args(argv)
+    missing = [str(p) for p in [*args.episodes, *([args.reference_from] if args.reference_from else [])] if not p.is_file()]
+    if missing:
+        ap.error(f"no such episodes file: {', '.join(missing)}")
     rows = [r for path in args.episodes for r in read_episodes(path)]
     ref = _trip_times(read_episodes(args.reference_from) if args.reference_from else rows, args.reference)
     runs = [_trip_times(rows, c) for c in args.controllers]

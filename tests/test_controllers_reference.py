@@ -254,7 +254,7 @@ def _mass_error_after_start(controller: str, seed: int = 100076, steps: int = 70
 def test_a_pulsed_service_brake_reads_a_heavy_train_light_and_a_gentler_overspeed_brake_does_not():
     """docs/rl.md §25: held-out track 100076 (34.9 t). The default overspeed gain pulses the brake near the reference;
     the estimator, which cannot see the brake, then reads the train 12.6 % light at 7 s. At 2.5/s the brake is pulsed
-    half as often and the estimate stays within 1 %."""
+    half as often and the estimate is within 0.1 % (loose bounds here: over 8 % light, within 3 %)."""
     err_default, brakes_default = _mass_error_after_start("rule-based")
     err_gentle, brakes_gentle = _mass_error_after_start("rule-based@overspeed_gain_per_s=2.5")
     assert err_default < -0.08 and abs(err_gentle) < 0.03

@@ -53,3 +53,11 @@ def test_an_unknown_controller_is_named(tmp_path):
     a = _write(tmp_path / "a.csv", [("rule-based", 0, 100.0, True)])
     with pytest.raises(SystemExit, match="no episodes of controller 'ppo'"):
         pr.main([str(a), "--controllers", "ppo"])
+
+
+def test_a_missing_episodes_file_is_named_before_anything_is_read(tmp_path, capsys):
+    a = _write(tmp_path / "a.csv", [("rule-based", 0, 100.0, True)])
+    with pytest.raises(SystemExit):
+        pr.main([str(a), "--reference-from", str(tmp_path / "nope.csv"), "--controllers", "rule-based"])
+    err = capsys.readouterr().err
+    assert "no such episodes file" in err and "nope.csv" in err

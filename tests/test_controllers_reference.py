@@ -259,3 +259,28 @@ def test_a_pulsed_service_brake_reads_a_heavy_train_light_and_a_gentler_overspee
     err_gentle, brakes_gentle = _mass_error_after_start("rule-based@overspeed_gain_per_s=2.5")
     assert err_default < -0.08 and abs(err_gentle) < 0.03
     assert brakes_gentle < brakes_default
+
+
+def test_a_wide_mass_std_keeps_the_wide_margin_and_a_narrow_one_takes_k_sigma():
+    """``wide_std_frac``: with ``k_sigma=1`` the margin is 1 σ on an estimate whose σ is under 10 % of it, and
+    ``k_sigma_wide`` (2) σ on one whose σ is the prior's (no estimator: 22 %); off by default (docs/rl.md §25)."""
+    from agents.controllers import RuleBasedController
+    from agents.control_input import ControlInput
+    from uuom_core.vehicle import VehicleParams
+
+    v = VehicleParams()
+
+    def planning(ctrl: RuleBasedController, mass_kg: float, std_kg: float) -> tuple[float, float]:
+        ctrl.reset()
+        ctrl._t_s = 100.0  # past the warm-up, nothing remembered
+        x = ControlInput(0.0, 0.5, 500.0, mass_kg, std_kg, 0.0, math.radians(0.5), 0.1)
+        return ctrl._pessimistic_mass_now(x), x.est_slope_rad - ctrl._k(x) * x.est_slope_std_rad
+
+    gated = RuleBasedController(v, k_sigma=1.0, wide_std_frac=0.1)
+    assert planning(gated, 26_000.0, 1_000.0)[0] == pytest.approx(27_000.0)   # 3.8 %: one σ
+    assert planning(gated, 26_000.0, 5_774.0)[0] == pytest.approx(min(37_548.0, v.max_mass_kg))  # 22 %: two σ
+    assert planning(gated, 20_000.0, 3_000.0) == pytest.approx((26_000.0, -math.radians(1.0)))  # both margins
+    plain = RuleBasedController(v, k_sigma=1.0)
+    assert plain.wide_std_frac is None and planning(plain, 20_000.0, 3_000.0)[0] == pytest.approx(23_000.0)
+    with pytest.raises(ValueError, match="wide_std_frac"):
+        RuleBasedController(v, wide_std_frac=-0.1)

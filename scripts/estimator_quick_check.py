@@ -166,17 +166,17 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{group:7s} {label:28s} n={len(a):3d}  mass % median {np.median(m):6.2f} p90 "
               f"{np.percentile(m, 90):6.2f} p95 {np.percentile(m, 95):6.2f} max {m.max():6.1f} | slope deg median "
               f"{np.median(a[:, 1]):.2f} p95 {np.percentile(a[:, 1], 95):.2f}")
-    for label, (met, n) in clean_bounds_met(rows, specs).items():
+    for label, (met, n) in clean_bounds_met(rows).items():
         print(f"pm-sc   {label:28s} fault-free scenarios within {CLEAN_MASS_PCT:g} % and {CLEAN_SLOPE_DEG:g} deg: "
               f"{met} of {n} runs")
     return 0
 
 
-def clean_bounds_met(rows: list[tuple[str, str, float, float]], specs: list[RunSpec]) -> dict[str, tuple[int, int]]:
+def clean_bounds_met(rows: list[tuple[str, str, float, float]]) -> dict[str, tuple[int, int]]:
     """Per config label: how many point-mass scenario runs without faults and with the vehicle file's running
     resistance (issue 10's "clean traces") meet both clean bounds, and out of how many such runs."""
     out: dict[str, tuple[int, int]] = {}
-    for (group, label, mass, slope), spec in zip(rows, specs):
+    for group, label, mass, slope in rows:
         if not group.startswith("pm-sc:") or not is_clean_scenario(POINT_MASS_SCENARIOS[group[6:]]):
             continue
         met, n = out.get(label, (0, 0))

@@ -128,7 +128,6 @@ def test_clean_scenarios_are_those_without_faults_or_a_resistance_mismatch():
 
 
 def test_clean_bounds_count_only_fault_free_scenarios_and_need_both_bounds():
-    spec = qc._specs(0, 0)[0][1]  # the spec is not read for the count, only carried alongside its row
     rows = [("pm-sc:pm-section1", "a", 2.0, 0.15),      # on both bounds: met
             ("pm-sc:pm-section2", "a", 2.01, 0.05),     # mass over
             ("pm-sc:pm-roadtest", "a", 0.5, 0.151),     # slope over
@@ -136,4 +135,4 @@ def test_clean_bounds_count_only_fault_free_scenarios_and_need_both_bounds():
             ("pm-sc:pm-resistance-mismatch", "a", 0.1, 0.01),
             ("tuning", "a", 0.1, 0.01),                 # not a scenario
             ("pm-sc:pm-section1", "b", 0.1, 0.01)]
-    assert qc.clean_bounds_met(rows, [spec] * len(rows)) == {"a": (1, 3), "b": (1, 1)}
+    assert qc.clean_bounds_met(rows) == {"a": (1, 3), "b": (1, 1)}

@@ -71,13 +71,25 @@ def recovery(name: str, seed: int, against_truth: bool) -> dict[str, list[float 
     return out
 
 
-def main() -> None:
+def _names(parser: argparse.ArgumentParser, given: list[str]) -> list[str]:
+    """The estimator names, space- or comma-separated; an unknown one is a usage error naming it."""
+    names = [n for item in given for n in item.split(",") if n]
+    unknown = [n for n in names if n not in estimators.available()]
+    if unknown or not names:
+        parser.error(f"unknown estimator {', '.join(map(repr, unknown)) or '(none given)'}; "
+                     f"available: {', '.join(estimators.available())}")
+    return names
+
+
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--estimators", nargs="+", default=estimators.available())
+    parser.add_argument("--estimators", nargs="+", default=estimators.available(),
+                        help="names, space- or comma-separated (default: all)")
     parser.add_argument("--seeds", type=_seeds, default=[3], help="noise seeds (default 3, the test's): 3, 0-7, 1,4,7")
     parser.add_argument("--against-truth", action="store_true",
                         help="mass and slope: faulted minus clean mean |error| against the truth")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    args.estimators = _names(parser, args.estimators)
     several = len(args.seeds) > 1
     print("| estimator | output | " + " | ".join(FAULTS) + " |")
     print("| --- | --- | " + " | ".join("---" for _ in FAULTS) + " |")

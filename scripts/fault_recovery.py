@@ -72,12 +72,15 @@ def recovery(name: str, seed: int, against_truth: bool) -> dict[str, list[float 
 
 
 def _names(parser: argparse.ArgumentParser, given: list[str]) -> list[str]:
-    """The estimator names, space- or comma-separated; an unknown one is a usage error naming it."""
+    """The estimator names, space- or comma-separated; an unknown one is a usage error with the registry's message."""
     names = [n for item in given for n in item.split(",") if n]
-    unknown = [n for n in names if n not in estimators.available()]
-    if unknown or not names:
-        parser.error(f"unknown estimator {', '.join(map(repr, unknown)) or '(none given)'}; "
-                     f"available: {', '.join(estimators.available())}")
+    if not names:
+        parser.error("--estimators: no name given")
+    for name in names:
+        try:
+            estimators.get_class(name)
+        except estimators.UnknownEstimatorError as exc:
+            parser.error(str(exc))
     return names
 
 

@@ -1,7 +1,7 @@
 """Online mass and slope estimators for overhead monorails, usable in the environment and on recorded traces."""
 
 from .base import Estimate, EstimateSeries, Estimator
-from .registry import UnknownEstimatorError, available, get_class, make, register
+from .registry import UnknownEstimatorError, available, get_class, make, parse_names, register
 
 __all__ = [
     "Estimate",
@@ -11,5 +11,6 @@ __all__ = [
     "available",
     "get_class",
     "make",
+    "parse_names",
     "register",
 ]

@@ -7,7 +7,8 @@ broken method cannot stop the others from loading.
 from __future__ import annotations
 
 import importlib
-from typing import Any
+import re
+from typing import Any, Iterable
 
 from uuom_core.vehicle import VehicleParams
 
@@ -53,17 +54,43 @@ def available() -> list[str]:
     return sorted(_REGISTRY)
 
 
+def _unknown(name: str, extra: list[str] | None = None) -> UnknownEstimatorError:
+    return UnknownEstimatorError(f"unknown estimator {name!r}; available: {', '.join(available() + (extra or []))}")
+
+
 def get_class(name: str) -> type[Estimator]:
     """The estimator class registered under ``name``."""
     try:
         target = _REGISTRY[name]
     except KeyError:
-        raise UnknownEstimatorError(
-            f"unknown estimator {name!r}; available: {', '.join(available())}"
-        ) from None
+        raise _unknown(name) from None
     module_name, _, class_name = target.partition(":")
     module = importlib.import_module(module_name)
     return getattr(module, class_name)
+
+
+def parse_names(given: str | Iterable[str], *, also: Iterable[str] = ()) -> list[str]:
+    """Estimator names from a command line: comma- or space-separated, in one string or several.
+
+    Every name must be registered (or be one of ``also``, e.g. ``"none"`` where a script knows it); the check does
+    not import the estimator, so a benchmark can still skip a method whose optional dependency is missing.
+
+    Raises
+    ------
+    ValueError
+        No name given.
+    UnknownEstimatorError
+        A name that is neither registered nor in ``also``; the message names it and lists the registered ones.
+    """
+    items = [given] if isinstance(given, str) else list(given)
+    names = [n for item in items for n in re.split(r"[,\s]+", item) if n]
+    if not names:
+        raise ValueError("no estimator name given")
+    known = set(_REGISTRY) | set(also)
+    for name in names:
+        if name not in known:
+            raise _unknown(name, sorted(set(also) - set(_REGISTRY)))
+    return names
 
 
 def make(name: str, vehicle: VehicleParams | None = None, **options: Any) -> Estimator:
@@ -71,4 +98,4 @@ def make(name: str, vehicle: VehicleParams | None = None, **options: Any) -> Est
     return get_class(name)(vehicle, **options)
 
 
-__all__ = ["UnknownEstimatorError", "available", "get_class", "make", "register"]
+__all__ = ["UnknownEstimatorError", "available", "get_class", "make", "parse_names", "register"]

@@ -31,6 +31,7 @@ import numpy as np
 
 import estimators
 from estimators.base import Estimator, first_step_dts
+from estimators.cli import names_argument
 from estimators.ekf import SlopeEKF
 from uuom_core.trace import Trace
 from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2
@@ -255,12 +256,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cpu", type=int, default=None, help="pin to this CPU (one core)")
     ap.add_argument("--estimators", default=None, help="comma-separated names (default: all that import)")
     args = ap.parse_args(argv)
+    names = names_argument(ap, args.estimators, default=estimators.available())
     if args.cpu is not None and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {args.cpu})
     trace = load_trace()
     n = len(trace)
     print(f"trace: {trace.source}, {n} samples ({trace.duration_s:.1f} s); best of {args.repeat}")
-    names = args.estimators.split(",") if args.estimators else estimators.available()
     print(f"load average before: {os.getloadavg()[0]:.1f} (CPU time per process; wall time in the last column)")
     print(f"{'estimator':<24} {'cpu (s)':>9} {'us/sample':>10} {'samples/s':>11} {'wall (s)':>9}")
     for name in names:

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 import estimators
+from estimators.cli import names_argument
 from estimators.metrics import error_after_settling
 from estimators.protocol_report import PAPER_MASS_RMSE, PAPER_SLOPE_RMSE_DEG
 from uuom_core.trace import Trace
@@ -147,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
         args.seeds, args.duration_s, args.no_figures = 1, 60.0, True
     scenarios = args.scenarios.split(",")
     loads = [float(x) for x in args.loads.split(",")]
-    names = args.estimators.split(",") if args.estimators else estimators.available()
+    names = names_argument(ap, args.estimators, default=estimators.available())
     usable = []
     for name in names:
         try:

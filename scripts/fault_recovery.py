@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 import estimators
+from estimators.cli import names_argument
 from estimators.fault_injection import (FAULTS, RECOVERY_BOUNDS, RECOVERY_MASS_KG, RECOVERY_OPTIONS, inject,
                                        run_outputs, seven_channel_run)
 
@@ -71,28 +72,15 @@ def recovery(name: str, seed: int, against_truth: bool) -> dict[str, list[float 
     return out
 
 
-def _names(parser: argparse.ArgumentParser, given: list[str]) -> list[str]:
-    """The estimator names, space- or comma-separated; an unknown one is a usage error with the registry's message."""
-    names = [n for item in given for n in item.split(",") if n]
-    if not names:
-        parser.error("--estimators: no name given")
-    for name in names:
-        try:
-            estimators.get_class(name)
-        except estimators.UnknownEstimatorError as exc:
-            parser.error(str(exc))
-    return names
-
-
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--estimators", nargs="+", default=estimators.available(),
+    parser.add_argument("--estimators", nargs="+", default=None,
                         help="names, space- or comma-separated (default: all)")
     parser.add_argument("--seeds", type=_seeds, default=[3], help="noise seeds (default 3, the test's): 3, 0-7, 1,4,7")
     parser.add_argument("--against-truth", action="store_true",
                         help="mass and slope: faulted minus clean mean |error| against the truth")
     args = parser.parse_args(argv)
-    args.estimators = _names(parser, args.estimators)
+    args.estimators = names_argument(parser, args.estimators, default=estimators.available())
     several = len(args.seeds) > 1
     print("| estimator | output | " + " | ".join(FAULTS) + " |")
     print("| --- | --- | " + " | ".join("---" for _ in FAULTS) + " |")

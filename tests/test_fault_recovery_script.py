@@ -40,14 +40,3 @@ def test_both_criteria_on_one_estimator() -> None:
             assert d_truth <= d_clean + 1e-9
     aupf = fault_recovery.recovery("aupf", 3, against_truth=True)
     assert all(v is None for v in aupf["slip_ratio"])
-
-
-def test_estimator_names_space_or_comma_separated_and_an_unknown_one_is_named(capsys) -> None:
-    """``--estimators fused,dffrls-aekf`` used to reach the registry as one name and end in a traceback."""
-    parser = argparse.ArgumentParser(prog="fault_recovery.py")
-    assert fault_recovery._names(parser, ["fused,dffrls-aekf", "rls"]) == ["fused", "dffrls-aekf", "rls"]
-    with pytest.raises(SystemExit) as exc:
-        fault_recovery.main(["--estimators", "fused,kalman"])
-    assert exc.value.code == 2
-    err = capsys.readouterr().err
-    assert "unknown estimator 'kalman'" in err and "available:" in err

@@ -140,7 +140,12 @@ def evaluate_parser() -> argparse.ArgumentParser:
     ap.add_argument("--ray", action="store_true", help="run the episodes on Ray instead of local processes")
     ap.add_argument("--env", default="UUOM-Track-v0", choices=ENV_IDS,
                     help="registered env id: its configuration under --env-kwargs (use the id a policy was trained on)")
-    ap.add_argument("--env-kwargs", type=_json_object, default={})
+    ap.add_argument("--env-kwargs", type=_json_object, default={},
+                    help="JSON env config for every controller; a run directory trained on another one is an error "
+                    "(the message gives its training config) unless --allow-env-shift")
+    ap.add_argument("--allow-env-shift", action="store_true",
+                    help="evaluate run directories on an env other than their training one on purpose (a robustness "
+                    "test); summary.md lists each difference")
     ap.add_argument("--out", type=Path, default=Path("results") / "eval")
     ap.add_argument("--plot-seed", type=int, default=None, help="episode drawn speed-vs-limit (default: first seed)")
     ap.add_argument("--plot-observer", default="dffrls-aekf")
@@ -166,7 +171,8 @@ def evaluate_main(argv: list[str] | None = None, prog: str = "uuom-evaluate") ->
     config = EvalConfig(
         controllers=list(args.controllers), observers=list(args.observers), episodes=args.episodes,
         seed_base=args.seed_base, workers=args.workers, use_ray=args.ray,
-        env_kwargs={**env_kwargs_of(args.env), **args.env_kwargs}, out=args.out, plot_seed=args.plot_seed,
+        env_kwargs={**env_kwargs_of(args.env), **args.env_kwargs}, allow_env_shift=args.allow_env_shift,
+        out=args.out, plot_seed=args.plot_seed,
         plot_observer=args.plot_observer, bars_png=args.bars_png, episode_png=args.episode_png, merge=args.merge, quiet=args.quiet, pool=dict(args.pool or []),
         command=" ".join([prog, *(sys.argv[1:] if argv is None else argv)]),
     )

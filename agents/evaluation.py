@@ -15,7 +15,10 @@ over tracks both completed), traction energy per t km, mean estimator errors. :f
 ``episodes.csv``, ``summary.csv`` and ``summary.md`` into ``config.out``, and the figures
 (:mod:`agents.evaluation_plots`) there too or, once, where ``bars_png`` / ``episode_png`` say (``summary.md``
 names them). In ``results/<study>/`` only ``summary.md``, ``summary.csv`` and the figures are committed; the
-per-episode ``episodes.csv`` is git-ignored (rerun the command in ``summary.md`` to regenerate it). Episodes run
+per-episode ``episodes.csv`` is git-ignored (rerun the command in ``summary.md`` to regenerate it). A trained
+policy runs on the env it was trained on (its ``config.json``): another ``env_kwargs`` is an :class:`EvalConfigError`
+naming the differences, unless ``allow_env_shift`` (then ``summary.md`` lists them; :data:`EVALUATION_SIDE_KEYS` are
+exempt). Episodes run
 in parallel with multiprocessing or on Ray (:mod:`agents.ray_support`).
 """
 
@@ -36,6 +39,12 @@ from agents.hyperparameters import ENV_ID
 
 DEFAULT_SEED_BASE = 100_000
 """Held-out tracks: training uses seeds near 0 and its EvalCallback near 1 000 000."""
+
+EVALUATION_SIDE_KEYS = frozenset({"observer", "observer_options", "reward_weights", "shaping_gamma", "render_fps",
+                                  "render_size", "render_window_m"})
+"""Env settings an evaluation may set differently from a policy's training without shifting its task: the reward
+and rendering do not change an episode, and the observer (with its options) is what the cross table and the
+sensitivity curves vary on purpose."""
 
 
 class EvalConfigError(ValueError):
@@ -137,6 +146,28 @@ class ModelPolicy:
 
 
 _MODEL_CACHE: dict[str, ModelPolicy] = {}
+
+
+def env_shift(trained: dict[str, Any], evaluated: dict[str, Any]) -> list[str]:
+    """Where the evaluation env differs from a policy's training env, as ``"key: trained -> evaluated"`` lines.
+
+    Both are completed with :func:`uuom_gym.envs.config.default_config` first, so an explicit default equals an
+    omitted one; :data:`EVALUATION_SIDE_KEYS` are not compared.
+    """
+    from uuom_gym.envs.config import default_config
+
+    def full(kwargs: dict[str, Any]) -> dict[str, Any]:
+        return json.loads(json.dumps({**default_config(), **kwargs}, default=str))
+
+    a, b = full(trained), full(evaluated)
+    return [f"{k}: {a.get(k)!r} -> {b.get(k)!r}" for k in sorted(set(a) | set(b))
+            if k not in EVALUATION_SIDE_KEYS and a.get(k) != b.get(k)]
+
+
+def trained_env_kwargs(run_dir: Path) -> dict[str, Any]:
+    """The env configuration a run directory's policy was trained with (``config.json``; {} when it has none)."""
+    path = Path(run_dir) / "config.json"
+    return dict(json.loads(path.read_text()).get("env_kwargs") or {}) if path.is_file() else {}
 
 
 def make_controller(spec: str, vehicle: Any) -> Any:
@@ -255,6 +286,7 @@ class EvalConfig:
     workers: int = 1
     use_ray: bool = False
     env_kwargs: dict[str, Any] = field(default_factory=dict)
+    allow_env_shift: bool = False
     out: Path = Path("results/eval")
     plot_seed: int | None = None
     plot_observer: str = "dffrls-aekf"
@@ -311,7 +343,7 @@ def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
         rows = run_tasks(tasks, config.workers, config.use_ray, progress=not config.quiet)
         wall = time.time() - t0
         head = (f"Held-out seeds {seeds[0]}..{seeds[-1]} ({len(seeds)} tracks), {len(rows)} episodes in {wall:.0f} s.\n"
-                f"Command: `{cmd}`\n\n")
+                f"Command: `{cmd}`\n\n{_shift_note(config)}")
         rec = [r for r in rows if "trace" in r and (r["observer"] == config.plot_observer or r["controller"] == "oracle")]
     summary = summarise(rows)
     out.mkdir(parents=True, exist_ok=True)
@@ -373,6 +405,15 @@ def check_config(config: EvalConfig) -> None:
             raise EvalConfigError(
                 f"controller {spec!r} is neither one of {', '.join(CONTROLLERS)} nor a run directory with a model.zip"
             )
+        elif not config.allow_env_shift:
+            trained = trained_env_kwargs(Path(base))
+            shift = env_shift(trained, config.env_kwargs)
+            if shift:
+                raise EvalConfigError(
+                    f"controller {spec!r} was trained on another env than this evaluation's ({'; '.join(shift)}): "
+                    f"pass its training configuration, --env-kwargs '{json.dumps(trained)}', or --allow-env-shift "
+                    "to evaluate it off its training env on purpose"
+                )
     if config.pool and not config.merge:
         raise EvalConfigError("--pool needs --merge (it pools the rows of earlier evaluations)")
     for d in config.merge or []:
@@ -383,6 +424,18 @@ def check_config(config: EvalConfig) -> None:
             gym.make(ENV_ID, observer=obs, **config.env_kwargs).close()
         except (ValueError, TypeError) as exc:
             raise EvalConfigError(str(exc).splitlines()[0]) from None
+
+
+def _shift_note(config: EvalConfig) -> str:
+    """With ``allow_env_shift``: which trained policies ran off their training env, and how (empty otherwise)."""
+    lines = []
+    for spec in config.controllers:
+        base, _ = split_shield(spec)
+        if (Path(base) / "model.zip").is_file():
+            shift = env_shift(trained_env_kwargs(Path(base)), config.env_kwargs)
+            if shift:
+                lines.append(f"- `{controller_label(spec)}` (trained -> evaluated): {'; '.join(shift)}")
+    return "Evaluated off the training env (`--allow-env-shift`):\n\n" + "\n".join(lines) + "\n\n" if lines else ""
 
 
 def _parts(dirs: list[Path]) -> str:

@@ -218,6 +218,34 @@ def test_bad_evaluation_input_is_named_before_any_episode(tmp_path, config, frag
     assert not (tmp_path / "out").exists()
 
 
+STATION_POLICY = ROOT / "results" / "rl" / "policies" / "ppo_bare_station_cap_300k_s0"
+
+
+def test_env_shift_compares_completed_configs_and_skips_evaluation_side_keys():
+    from agents.evaluation import env_shift
+
+    assert env_shift({}, {"action_mode": "command", "policy_hz": 10}) == []  # explicit defaults equal omitted ones
+    assert env_shift({"reward_weights": {"safety": 1}}, {"observer_options": {"mass_error": 0.1}}) == []
+    assert env_shift({"track_length_m": [50, 100]}, {}) == ["track_length_m: [50, 100] -> [100.0, 300.0]"]
+    assert env_shift({}, {"policy_hz": 2.0}) == ["policy_hz: 10.0 -> 2.0"]
+
+
+def test_a_policy_evaluated_off_its_training_env_is_an_error_unless_asked_for(tmp_path):
+    """A shipped speed-target policy evaluated without its env options used to run as a traction policy: 0 % success,
+    silently. Now the message names the differences and the --env-kwargs to pass."""
+    with pytest.raises(EvalConfigError, match="action_mode: 'speed_target' -> 'command'") as exc:
+        evaluate(EvalConfig(controllers=[str(STATION_POLICY)], observers=["oracle"], episodes=1, workers=1,
+                            out=tmp_path / "out", quiet=True))
+    trained = json.loads((STATION_POLICY / "config.json").read_text())["env_kwargs"]
+    assert json.dumps(trained) in str(exc.value) and "--allow-env-shift" in str(exc.value)
+    assert not (tmp_path / "out").exists()
+    # its training env plus a shorter track, on purpose: runs, and summary.md says how the env differed
+    evaluate(EvalConfig(controllers=[str(STATION_POLICY)], observers=["oracle"], episodes=1, workers=1,
+                        env_kwargs={**trained, **TINY_ENV}, allow_env_shift=True, out=tmp_path / "out", quiet=True))
+    text = (tmp_path / "out" / "summary.md").read_text()
+    assert "--allow-env-shift" in text and "track_length_m: [100.0, 300.0] -> [50.0, 60.0]" in text
+
+
 def test_ray_missing_names_the_extra(monkeypatch, tmp_path, capsys):
     import tomllib
 

@@ -83,6 +83,12 @@ def train_parser() -> argparse.ArgumentParser:
     group.add_argument("--resume", action="store_true", help="continue from the newest checkpoint of the run directory")
     group.add_argument("--fresh", action="store_true", help="delete the run directory and start over")
     ap.add_argument("--device", default="cpu")
+    ap.add_argument("--init-from", type=Path, default=None, metavar="DIR",
+                    help="start from this run directory's (or checkpoints/step_<n>'s) policy and VecNormalize, its "
+                    "step count going on: the next leg of a curriculum (--timesteps is the total)")
+    ap.add_argument("--action-std-ceiling", type=float, nargs=3, default=None, metavar=("START", "END", "STEPS"),
+                    help="PPO: cap the action std by a ceiling falling log-linearly from START to END over STEPS env "
+                    "steps from the run's first step (docs/rl.md §27)")
     return ap
 
 
@@ -97,7 +103,9 @@ def train_config(args: argparse.Namespace) -> Any:
         conf_file=args.conf_file, hyperparams=list(args.hyperparams), env_kwargs=args.env_kwargs, env_id=args.env,
         eval_freq=args.eval_freq, eval_episodes=args.eval_episodes, checkpoint_freq=args.checkpoint_freq,
         subproc=not args.no_subproc, progress=not args.no_progress, fresh=args.fresh, resume=args.resume,
-        device=args.device,
+        device=args.device, init_from=args.init_from,
+        action_std_ceiling=tuple(args.action_std_ceiling)
+        if args.action_std_ceiling is not None else None,
     )
 
 

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.algos import ALGOS, algo_class
-from agents.checkpoints import atomic_write, atomic_write_text, clean_partial, latest_checkpoint
+from agents.checkpoints import Checkpoint, atomic_write, atomic_write_text, clean_partial, latest_checkpoint
 from agents.hyperparameters import (ENV_ID, TrainConfigError, evaluate_str, load_hyperparams,
                                     wrappers_from_env_wrapper)
 from uuom_gym.registration import env_kwargs_of
@@ -56,6 +56,13 @@ class TrainConfig:
     ``None``: the YAML's ``env_wrapper``. ``resume``: continue from the newest checkpoint of the run directory
     (required when it has one, unless ``fresh`` starts over). ``env_id``: a registered id; its configuration is
     the base of ``env_kwargs`` (recorded in full in the run's ``config.json``) and its entry of the YAML is read.
+
+    ``init_from``: a run directory or one of its ``checkpoints/step_<n>`` whose policy and VecNormalize this run
+    starts from, its step count going on (``timesteps`` is the total): the next leg of a curriculum on another env
+    configuration. ``action_std_ceiling`` ``(start, end, steps)``: PPO's action standard deviation may not exceed a
+    ceiling falling log-linearly from ``start`` to ``end`` over ``steps`` env steps from this run's first step, and
+    ``end`` after (:class:`agents.training_callbacks.ActionStdCeiling`): the mean action must take over what the
+    exploration noise did (docs/rl.md §27).
     """
 
     algo: str = "ppo"
@@ -80,6 +87,8 @@ class TrainConfig:
     fresh: bool = False
     resume: bool = False
     device: str = "cpu"
+    init_from: Path | None = None
+    action_std_ceiling: tuple[float, float, int] | None = None
 
 
 # --- environments --------------------------------------------------------------------------------------------
@@ -196,6 +205,16 @@ def plan(config: TrainConfig) -> _Plan:
             raise TrainConfigError(str(exc)) from None
     if c.fresh and c.resume:
         raise TrainConfigError("fresh and resume exclude each other")
+    if c.init_from is not None and not (Path(c.init_from) / "model.zip").is_file():
+        raise TrainConfigError(f"init_from {str(c.init_from)!r}: no model.zip there (a run directory or a "
+                               "checkpoints/step_<n> directory)")
+    if c.action_std_ceiling is not None:
+        start, end, steps = c.action_std_ceiling
+        if c.algo == "sac":
+            raise TrainConfigError("action_std_ceiling: SAC has no state-independent action std (PPO only)")
+        if not (0.0 < end <= start) or int(steps) != steps or steps < 1:
+            raise TrainConfigError(f"action_std_ceiling must be START END STEPS with 0 < END <= START and STEPS a "
+                                   f"whole number >= 1, got {c.action_std_ceiling!r}")
     if not isinstance(c.env_kwargs, dict):
         raise TrainConfigError(f"env_kwargs must be a JSON object, got {c.env_kwargs!r}")
     try:
@@ -278,9 +297,24 @@ def train(config: TrainConfig) -> Path:
         **({"margin_schedule": list(p.margin_schedule)} if p.margin_schedule is not None else {}),
         "hyperparams": {k: repr(v) for k, v in p.hp.items()}, "normalize": p.normalize,
     }
+    init = None
+    if config.init_from is not None:
+        init = Checkpoint(Path(config.init_from), _saved_steps(Path(config.init_from) / "model.zip"))
+        record.update(init_from=str(config.init_from), init_steps=init.steps)
+    if config.action_std_ceiling is not None:
+        start, end, steps = config.action_std_ceiling
+        record["action_std_ceiling"] = [float(start), float(end), int(steps)]
     if resume is not None:
         _check_same_run(run_dir, record)
-    return _learn(config, p, record, resume)
+    return _learn(config, p, record, resume, init)
+
+
+def _saved_steps(model_zip: Path) -> int:
+    """The step count a saved SB3 model was at (its ``data`` entry; the parameters are not loaded)."""
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    data, _, _ = load_from_zip_file(model_zip, load_data=True, device="cpu", print_system_info=False)
+    return int(data.get("num_timesteps", 0)) if data else 0
 
 
 def _check_same_run(run_dir: Path, record: dict[str, Any]) -> None:
@@ -295,13 +329,13 @@ def _check_same_run(run_dir: Path, record: dict[str, Any]) -> None:
         raise TrainConfigError(f"--resume with a different {k} ({old[k]!r} in {path}, now {record[k]!r})")
 
 
-def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any) -> Path:
+def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, init: Any = None) -> Path:
     import torch
     from stable_baselines3.common.callbacks import CallbackList
     from stable_baselines3.common.vec_env import VecNormalize
 
     from agents.callbacks import UUOMMetricsCallback
-    from agents.training_callbacks import CheckpointEvery, HistoryEvalCallback, StopFlag
+    from agents.training_callbacks import ActionStdCeiling, CheckpointEvery, HistoryEvalCallback, StopFlag
 
     torch.set_num_threads(1)  # the env processes need the cores; small MLPs gain nothing from threads
     run_dir, ckpt_dir = p.run_dir, p.run_dir / "checkpoints"
@@ -309,17 +343,19 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any) -
     venv = make_vec_env(config.observer, config.seed, p.n_envs, p.shield, p.env_kwargs, config.subproc, p.residual,
                         p.margin_schedule)
     eval_venv = None
+    start = resume if resume is not None else init
     try:
-        if resume is not None:
+        if start is not None:
             if p.normalize is not None:
-                if resume.vecnormalize is None:
-                    raise TrainConfigError(f"checkpoint {resume.path} has no vecnormalize.pkl")
-                venv = VecNormalize.load(str(resume.vecnormalize), venv)
+                if start.vecnormalize is None:
+                    raise TrainConfigError(f"checkpoint {start.path} has no vecnormalize.pkl")
+                venv = VecNormalize.load(str(start.vecnormalize), venv)
                 venv.training = True
-            model = cls.load(resume.model, env=venv, device=config.device)
-            if resume.replay_buffer is not None and hasattr(model, "load_replay_buffer"):
-                model.load_replay_buffer(resume.replay_buffer)
-            print(f"resuming from {resume.path} at {model.num_timesteps} steps", flush=True)
+            model = cls.load(start.model, env=venv, device=config.device)
+            if start.replay_buffer is not None and hasattr(model, "load_replay_buffer"):
+                model.load_replay_buffer(start.replay_buffer)
+            print(f"{'resuming' if resume is not None else 'starting'} from {start.path} at {model.num_timesteps} "
+                  "steps", flush=True)
         else:
             if p.normalize is not None:
                 venv = VecNormalize(venv, **p.normalize)
@@ -349,6 +385,8 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any) -
                                ckpt_dir, eval_cb, replay_buffer=is_off_policy)
         stop = StopFlag()
         callbacks = [UUOMMetricsCallback(), stop] + ([eval_cb] if eval_cb is not None else [])
+        if config.action_std_ceiling is not None:
+            callbacks.append(ActionStdCeiling(*config.action_std_ceiling, first_step=record.get("init_steps", 0)))
         if config.checkpoint_freq:
             callbacks.append(ckpt)
         remaining = p.total - model.num_timesteps
@@ -367,7 +405,7 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any) -
             if remaining > 0:
                 model.learn(total_timesteps=remaining, callback=CallbackList(callbacks),
                             progress_bar=config.progress and _has_progress_deps(),
-                            reset_num_timesteps=resume is None, tb_log_name="run")
+                            reset_num_timesteps=start is None, tb_log_name="run")
         finally:
             if in_main:
                 signal.signal(signal.SIGINT, previous)

@@ -16,6 +16,51 @@ from agents.checkpoints import atomic_write, atomic_write_text, save_checkpoint
 HISTORY_KEYS = ("timesteps", "results", "ep_lengths", "successes")
 
 
+class ActionStdCeiling(BaseCallback):
+    """Caps a Gaussian policy's action std by a ceiling falling log-linearly from ``start`` to ``end``.
+
+    Over ``steps`` env steps from ``first_step`` (the step count the run began at), then ``end``. Applied before
+    every rollout to the policy's ``log_std`` parameter (``clamp(max=log(ceiling))``): PPO may lower the std further
+    but not raise it.
+
+    Why: on the traction action the exploration noise itself drove the train off the start (a brake at rest does
+    nothing, a push moves it), so PPO learnt a mean that never had to; held-out, deterministic, that mean stays
+    put (docs/rl.md §27). Lowering the noise forces the mean to take over.
+    """
+
+    def __init__(self, start: float, end: float, steps: int, first_step: int = 0, verbose: int = 0) -> None:
+        super().__init__(verbose)
+        if not (0.0 < end <= start) or steps < 1:
+            raise ValueError(f"need 0 < end <= start and steps >= 1, got {start}, {end}, {steps}")
+        self.log_start, self.log_end = float(np.log(start)), float(np.log(end))
+        self.steps, self.first_step = int(steps), int(first_step)
+
+    def ceiling(self, num_timesteps: int) -> float:
+        """The std ceiling at a step count."""
+        frac = min(max((num_timesteps - self.first_step) / self.steps, 0.0), 1.0)
+        return float(np.exp(self.log_start + frac * (self.log_end - self.log_start)))
+
+    def _cap(self) -> float:
+        import torch
+
+        log_std = getattr(self.model.policy, "log_std", None)
+        if log_std is None:
+            raise TypeError(f"{type(self.model.policy).__name__} has no log_std to cap (PPO's Gaussian policy has)")
+        cap = self.ceiling(self.model.num_timesteps)
+        with torch.no_grad():
+            log_std.clamp_(max=float(np.log(cap)))
+        return cap
+
+    def _on_rollout_start(self) -> None:
+        self.logger.record("train/action_std_ceiling", self._cap())
+
+    def _on_training_end(self) -> None:
+        self._cap()  # the last update may have raised the std: the saved policy keeps under the ceiling too
+
+    def _on_step(self) -> bool:
+        return True
+
+
 class HistoryEvalCallback(EvalCallback):
     """EvalCallback whose history survives a resume and whose files are written atomically.
 

@@ -218,6 +218,41 @@ def test_bad_evaluation_input_is_named_before_any_episode(tmp_path, config, frag
     assert not (tmp_path / "out").exists()
 
 
+def test_init_from_starts_a_new_leg_and_the_std_ceiling_caps_the_noise(tmp_path):
+    """A curriculum leg: the second run starts from the first one's policy and normalisation on another env, its
+    step count going on, with the action std capped by a falling ceiling (docs/rl.md §27)."""
+    import torch
+    from stable_baselines3 import PPO
+
+    from agents.training_callbacks import ActionStdCeiling
+
+    first = train(_config(tmp_path / "a", 512, shield=False, residual=0.0))
+    second = train(_config(tmp_path / "b", 1536, shield=False, residual=0.0, init_from=first,
+                           env_kwargs={"track_length_m": [60.0, 70.0]}, action_std_ceiling=(0.3, 0.1, 512)))
+    cfg = json.loads((second / "config.json").read_text())
+    assert cfg["init_from"] == str(first) and cfg["init_steps"] == 512
+    assert cfg["action_std_ceiling"] == [0.3, 0.1, 512] and cfg["env_kwargs"]["track_length_m"] == [60.0, 70.0]
+    model = PPO.load(second / "model.zip", device="cpu")
+    assert model.num_timesteps == 1536
+    # the ceiling reached its end (0.1) after 512 of the 1 024 new steps; the saved policy is under it
+    assert float(torch.exp(model.policy.log_std.detach()).max()) <= 0.1 + 1e-6
+    cap = ActionStdCeiling(0.3, 0.1, 512, first_step=512)
+    assert cap.ceiling(0) == pytest.approx(0.3) and cap.ceiling(768) == pytest.approx((0.3 * 0.1) ** 0.5)
+    assert cap.ceiling(10**6) == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("kw, fragment", [
+    (dict(init_from=Path("/nonexistent")), "no model.zip there"),
+    (dict(action_std_ceiling=(0.1, 0.3, 100)), "0 < END <= START"),
+    (dict(action_std_ceiling=(0.3, 0.1, 0)), "STEPS a whole number"),
+    (dict(algo="sac", action_std_ceiling=(0.3, 0.1, 100)), "PPO only"),
+])
+def test_bad_init_from_or_std_ceiling_is_named(tmp_path, kw, fragment):
+    with pytest.raises(TrainConfigError, match=fragment):
+        train(_config(tmp_path / "r", 512, **kw))
+    assert not (tmp_path / "r").exists()
+
+
 STATION_POLICY = ROOT / "results" / "rl" / "policies" / "ppo_bare_station_cap_300k_s0"
 
 

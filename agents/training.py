@@ -300,6 +300,9 @@ def train(config: TrainConfig) -> Path:
     init = None
     if config.init_from is not None:
         init = Checkpoint(Path(config.init_from), _saved_steps(Path(config.init_from) / "model.zip"))
+        if p.total <= init.steps:
+            raise TrainConfigError(f"timesteps ({p.total}) is the total: it must exceed init_from's step count "
+                                   f"({init.steps})")
         record.update(init_from=str(config.init_from), init_steps=init.steps)
     if config.action_std_ceiling is not None:
         start, end, steps = config.action_std_ceiling
@@ -313,7 +316,10 @@ def _saved_steps(model_zip: Path) -> int:
     """The step count a saved SB3 model was at (its ``data`` entry; the parameters are not loaded)."""
     from stable_baselines3.common.save_util import load_from_zip_file
 
-    data, _, _ = load_from_zip_file(model_zip, load_data=True, device="cpu", print_system_info=False)
+    try:
+        data, _, _ = load_from_zip_file(model_zip, load_data=True, device="cpu", print_system_info=False)
+    except Exception as exc:  # a zip SB3 cannot read: name the file, not SB3's internals
+        raise TrainConfigError(f"init_from: {model_zip} is not a saved SB3 model ({type(exc).__name__})") from None
     return int(data.get("num_timesteps", 0)) if data else 0
 
 

@@ -246,11 +246,19 @@ def test_init_from_starts_a_new_leg_and_the_std_ceiling_caps_the_noise(tmp_path)
     (dict(action_std_ceiling=(0.1, 0.3, 100)), "0 < END <= START"),
     (dict(action_std_ceiling=(0.3, 0.1, 0)), "STEPS a whole number"),
     (dict(algo="sac", action_std_ceiling=(0.3, 0.1, 100)), "PPO only"),
+    (dict(init_from=ROOT / "results" / "rl" / "policies" / "ppo_bare_rev2_200k_s0"), "must exceed init_from's step"),
 ])
 def test_bad_init_from_or_std_ceiling_is_named(tmp_path, kw, fragment):
     with pytest.raises(TrainConfigError, match=fragment):
         train(_config(tmp_path / "r", 512, **kw))
     assert not (tmp_path / "r").exists()
+
+
+def test_init_from_a_file_that_is_not_a_model_is_named(tmp_path):
+    (tmp_path / "bad").mkdir()
+    (tmp_path / "bad" / "model.zip").write_bytes(b"not a zip")
+    with pytest.raises(TrainConfigError, match="not a saved SB3 model"):
+        train(_config(tmp_path / "r", 512, init_from=tmp_path / "bad"))
 
 
 STATION_POLICY = ROOT / "results" / "rl" / "policies" / "ppo_bare_station_cap_300k_s0"

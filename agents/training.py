@@ -360,6 +360,11 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
             model = cls.load(start.model, env=venv, device=config.device)
             if start.replay_buffer is not None and hasattr(model, "load_replay_buffer"):
                 model.load_replay_buffer(start.replay_buffer)
+            if resume is None and model.seed != config.seed:
+                # SB3's load seeds every generator and the envs with the source's seed; --seed must count for a new
+                # run (with the source's seed nothing changes, so a chain run before this line reproduces)
+                model.seed = config.seed
+                model.set_random_seed(config.seed)
             print(f"{'resuming' if resume is not None else 'starting'} from {start.path} at {model.num_timesteps} "
                   "steps", flush=True)
         else:

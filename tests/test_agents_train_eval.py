@@ -254,6 +254,19 @@ def test_bad_init_from_or_std_ceiling_is_named(tmp_path, kw, fragment):
     assert not (tmp_path / "r").exists()
 
 
+def test_init_from_runs_with_its_own_seed(tmp_path):
+    """SB3's load reseeds with the source's seed: without care, --seed 4 and --seed 5 from one source gave the same run."""
+    from stable_baselines3 import PPO
+
+    first = train(_config(tmp_path / "a", 512, shield=False, residual=0.0))
+    runs = [train(_config(tmp_path / f"s{seed}_{i}", 1024, shield=False, residual=0.0, init_from=first, seed=seed))
+            for i, seed in enumerate((3, 4, 4))]
+    params = [PPO.load(r / "model.zip", device="cpu").policy.state_dict() for r in runs]
+    key = next(k for k in params[0] if "action_net.weight" in k)
+    assert not (params[0][key] == params[1][key]).all()  # another seed, another run
+    assert (params[1][key] == params[2][key]).all()  # the same seed, the same run
+
+
 def test_init_from_a_file_that_is_not_a_model_is_named(tmp_path):
     (tmp_path / "bad").mkdir()
     (tmp_path / "bad" / "model.zip").write_bytes(b"not a zip")

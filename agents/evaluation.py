@@ -405,15 +405,15 @@ def check_config(config: EvalConfig) -> None:
             raise EvalConfigError(
                 f"controller {spec!r} is neither one of {', '.join(CONTROLLERS)} nor a run directory with a model.zip"
             )
-        elif not config.allow_env_shift:
-            trained = trained_env_kwargs(Path(base))
-            shift = env_shift(trained, config.env_kwargs)
-            if shift:
-                raise EvalConfigError(
-                    f"controller {spec!r} was trained on another env than this evaluation's ({'; '.join(shift)}): "
-                    f"pass its training configuration, --env-kwargs '{json.dumps(trained)}', or --allow-env-shift "
-                    "to evaluate it off its training env on purpose"
-                )
+    shifts = {} if config.allow_env_shift else _env_shifts(config)
+    if shifts:
+        spec, shift = next(iter(shifts.items()))
+        trained = trained_env_kwargs(Path(split_shield(spec)[0]))
+        raise EvalConfigError(
+            f"controller {spec!r} was trained on another env than this evaluation's ({'; '.join(shift)}): "
+            f"pass its training configuration, --env-kwargs '{json.dumps(trained)}', or --allow-env-shift "
+            "to evaluate it off its training env on purpose"
+        )
     if config.pool and not config.merge:
         raise EvalConfigError("--pool needs --merge (it pools the rows of earlier evaluations)")
     for d in config.merge or []:
@@ -426,15 +426,22 @@ def check_config(config: EvalConfig) -> None:
             raise EvalConfigError(str(exc).splitlines()[0]) from None
 
 
-def _shift_note(config: EvalConfig) -> str:
-    """With ``allow_env_shift``: which trained policies ran off their training env, and how (empty otherwise)."""
-    lines = []
+def _env_shifts(config: EvalConfig) -> dict[str, list[str]]:
+    """The trained policies among the controllers whose training env differs from the evaluation's, and how."""
+    out = {}
     for spec in config.controllers:
         base, _ = split_shield(spec)
         if (Path(base) / "model.zip").is_file():
             shift = env_shift(trained_env_kwargs(Path(base)), config.env_kwargs)
             if shift:
-                lines.append(f"- `{controller_label(spec)}` (trained -> evaluated): {'; '.join(shift)}")
+                out[spec] = shift
+    return out
+
+
+def _shift_note(config: EvalConfig) -> str:
+    """With ``allow_env_shift``: which trained policies ran off their training env, and how (empty otherwise)."""
+    lines = [f"- `{controller_label(spec)}` (trained -> evaluated): {'; '.join(shift)}"
+             for spec, shift in _env_shifts(config).items()]
     return "Evaluated off the training env (`--allow-env-shift`):\n\n" + "\n".join(lines) + "\n\n" if lines else ""
 
 

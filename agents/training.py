@@ -212,9 +212,12 @@ def plan(config: TrainConfig) -> _Plan:
         start, end, steps = c.action_std_ceiling
         if c.algo == "sac":
             raise TrainConfigError("action_std_ceiling: SAC has no state-independent action std (PPO only)")
-        if not (0.0 < end <= start) or int(steps) != steps or steps < 1:
-            raise TrainConfigError(f"action_std_ceiling must be START END STEPS with 0 < END <= START and STEPS a "
-                                   f"whole number >= 1, got {c.action_std_ceiling!r}")
+        from agents.training_callbacks import ActionStdCeiling
+
+        try:
+            ActionStdCeiling.check(start, end, steps)
+        except ValueError as exc:
+            raise TrainConfigError(f"action_std_ceiling {exc}") from None
     if not isinstance(c.env_kwargs, dict):
         raise TrainConfigError(f"env_kwargs must be a JSON object, got {c.env_kwargs!r}")
     try:

@@ -30,10 +30,16 @@ class ActionStdCeiling(BaseCallback):
 
     def __init__(self, start: float, end: float, steps: int, first_step: int = 0, verbose: int = 0) -> None:
         super().__init__(verbose)
-        if not (0.0 < end <= start) or steps < 1:
-            raise ValueError(f"need 0 < end <= start and steps >= 1, got {start}, {end}, {steps}")
+        self.check(start, end, steps)
         self.log_start, self.log_end = float(np.log(start)), float(np.log(end))
         self.steps, self.first_step = int(steps), int(first_step)
+
+    @staticmethod
+    def check(start: float, end: float, steps: float) -> None:
+        """``ValueError`` unless ``0 < end <= start`` and ``steps`` is a whole number >= 1."""
+        if not (0.0 < end <= start) or int(steps) != steps or steps < 1:
+            raise ValueError(f"must be START END STEPS with 0 < END <= START and STEPS a whole number >= 1, "
+                             f"got {(start, end, steps)!r}")
 
     def ceiling(self, num_timesteps: int) -> float:
         """The std ceiling at a step count."""

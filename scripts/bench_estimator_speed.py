@@ -254,7 +254,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--cpu", type=int, default=None, help="pin to this CPU (one core)")
-    ap.add_argument("--estimators", default=None, help="comma-separated names (default: all that import)")
+    ap.add_argument("--estimators", default=None, help="names, comma- or space-separated in one argument (default: all that import)")
     args = ap.parse_args(argv)
     names = names_argument(ap, args.estimators, default=estimators.available())
     if args.cpu is not None and hasattr(os, "sched_setaffinity"):

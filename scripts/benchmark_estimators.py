@@ -136,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--loads", default="10000", help="comma-separated payloads in kg (paper: 10000)")
     ap.add_argument("--scenarios", default=",".join(SCENARIOS))
-    ap.add_argument("--estimators", default=None, help="comma-separated names (default: all that import)")
+    ap.add_argument("--estimators", default=None, help="names, comma- or space-separated in one argument (default: all that import)")
     ap.add_argument("--settle-s", type=float, default=10.0)
     ap.add_argument("--duration-s", type=float, default=None, help="run length (default: the scenario's 120 s)")
     ap.add_argument("--quick", action="store_true", help="1 seed, 60 s runs, no figures")

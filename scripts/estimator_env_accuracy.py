@@ -217,7 +217,7 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--mode", choices=("closed", "replay", "offline"), default="closed")
     p.add_argument("--seeds", default="200000:200010", help="a:b (range) or comma list")
-    p.add_argument("--estimators", default=DEFAULT_ESTIMATORS, help="comma list; 'none' = the fixed prior")
+    p.add_argument("--estimators", default=DEFAULT_ESTIMATORS, help="names, comma- or space-separated in one argument; 'none' = the fixed prior")
     p.add_argument("--controller", default="rule-based", help="rule-based or oracle")
     p.add_argument("--drive-observer", default="dffrls-aekf", help="replay mode: observer while recording")
     p.add_argument("--settle-s", type=float, default=10.0)

@@ -128,6 +128,13 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--env-kwargs: a JSON object expected")
     if args.episodes < 1 or args.workers < 1:
         ap.error("--episodes and --workers must be >= 1")
+    from agents.controllers import CONTROLLERS
+    from agents.evaluation import split_options, split_shield
+
+    base = split_shield(args.controller)[0]
+    if split_options(base)[0] not in CONTROLLERS and not (Path(base) / "model.zip").is_file():
+        ap.error(f"--controller {args.controller!r}: neither one of {', '.join(CONTROLLERS)} nor a run directory "
+                 "with a model.zip")
     label = controller_label(args.controller)
     if args.episodes_csv is not None:
         seeds = trip_seeds(args.episodes_csv, label, args.observer)

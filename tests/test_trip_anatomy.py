@@ -59,3 +59,9 @@ def test_bad_arguments_are_usage_errors(argv, capsys):
 
 def test_summary_without_trips():
     assert ta.summary_lines([{"tripped": False}], 1) == ["1 episodes, no overspeed trip"]
+
+
+def test_unknown_controller_is_a_usage_error(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        ta.main(["--controller", str(tmp_path / "no_such_run")])
+    assert exc.value.code == 2 and "neither one of" in capsys.readouterr().err

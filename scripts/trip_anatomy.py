@@ -96,12 +96,16 @@ def summary_lines(rows: list[dict[str, Any]], n_episodes: int) -> list[str]:
     t = [r["t_s"] for r in trips]
     on_prior = [r for r in trips if r["std_share_of_prior"] >= PRIOR_STD_KEPT]
     over = [r for r in trips if r["first_over_cautious_s"] <= r["t_s"]]
+    if all(r["std_share_of_prior"] != r["std_share_of_prior"] for r in trips):  # NaN: no std at the start
+        prior = "on the prior: - (the observer reports no mass uncertainty at the start)"
+    else:
+        prior = (f"on the prior (mass std still >= {PRIOR_STD_KEPT:.0%} of its start value): {len(on_prior)}; true mass "
+                 "of those " + (f"{min(r['true_mass_t'] for r in on_prior):.1f}-"
+                                f"{max(r['true_mass_t'] for r in on_prior):.1f} t" if on_prior else "-"))
     return [
         f"{len(trips)} overspeed trips in {n_episodes} episodes; trip time median {statistics.median(t):.1f} s "
         f"(min {min(t):.1f}, max {max(t):.1f}); {sum(x <= 5.0 for x in t)} within the first 5 s",
-        f"on the prior (mass std still >= {PRIOR_STD_KEPT:.0%} of its start value): {len(on_prior)}; true mass of those "
-        + (f"{min(r['true_mass_t'] for r in on_prior):.1f}-{max(r['true_mass_t'] for r in on_prior):.1f} t"
-           if on_prior else "-"),
+        prior,
         f"speed above the cautious limit v_lim(M + 2 sigma) before the trip: {len(over)} of {len(trips)}",
     ]
 

@@ -65,3 +65,10 @@ def test_unknown_controller_is_a_usage_error(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         ta.main(["--controller", str(tmp_path / "no_such_run")])
     assert exc.value.code == 2 and "neither one of" in capsys.readouterr().err
+
+
+def test_summary_says_when_the_observer_has_no_prior():
+    trip = {"tripped": True, "t_s": 1.0, "std_share_of_prior": float("nan"), "first_over_cautious_s": 0.5,
+            "true_mass_t": 35.0}
+    lines = ta.summary_lines([trip], 1)
+    assert "no mass uncertainty at the start" in lines[1]

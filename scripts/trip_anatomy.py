@@ -96,6 +96,7 @@ def summary_lines(rows: list[dict[str, Any]], n_episodes: int) -> list[str]:
     t = [r["t_s"] for r in trips]
     on_prior = [r for r in trips if r["std_share_of_prior"] >= PRIOR_STD_KEPT]
     over = [r for r in trips if r["first_over_cautious_s"] <= r["t_s"]]
+    past = [r for r in trips if r["speed_mps"] > r["est_limit_mps"]]
     if all(r["std_share_of_prior"] != r["std_share_of_prior"] for r in trips):  # NaN: no std at the start
         prior = "on the prior: - (the observer reports no mass uncertainty at the start)"
     else:
@@ -107,6 +108,8 @@ def summary_lines(rows: list[dict[str, Any]], n_episodes: int) -> list[str]:
         f"(min {min(t):.1f}, max {max(t):.1f}); {sum(x <= 5.0 for x in t)} within the first 5 s",
         prior,
         f"speed above the cautious limit v_lim(M + 2 sigma) before the trip: {len(over)} of {len(trips)}",
+        f"at the trip, speed above the estimated limit v_lim(M, slope) (the controller drove past what it was told): "
+        f"{len(past)}; at or below it (the estimate's limit was too high): {len(trips) - len(past)}",
     ]
 
 

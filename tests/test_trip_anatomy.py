@@ -69,6 +69,7 @@ def test_unknown_controller_is_a_usage_error(tmp_path, capsys):
 
 def test_summary_says_when_the_observer_has_no_prior():
     trip = {"tripped": True, "t_s": 1.0, "std_share_of_prior": float("nan"), "first_over_cautious_s": 0.5,
-            "true_mass_t": 35.0}
+            "true_mass_t": 35.0, "speed_mps": 0.75, "est_limit_mps": 0.8}
     lines = ta.summary_lines([trip], 1)
     assert "no mass uncertainty at the start" in lines[1]
+    assert lines[3].endswith("drove past what it was told): 0; at or below it (the estimate's limit was too high): 1")

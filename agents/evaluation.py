@@ -183,23 +183,29 @@ def make_controller(spec: str, vehicle: Any) -> Any:
     return _MODEL_CACHE[base]
 
 
-def run_episode(task: Task) -> dict[str, Any]:
-    """Run one episode; return its flat summary row (and, if ``task.record``, the per-step trace)."""
+def start_episode(task: Task) -> tuple[Any, Any, np.ndarray, dict[str, Any]]:
+    """The env (wrapped as the controller was trained: shield, residual, margin schedule) and the controller of one
+    episode, reset on its track: ``(env, controller, obs, info)``. The caller steps it and closes the env."""
     import gymnasium as gym
 
     import uuom_gym  # noqa: F401 - registers the env
-    from agents.metrics import EpisodeAccumulator
     from agents.training import wrap_env
 
-    env_kwargs = json.loads(task.env_kwargs_json)
-    env = gym.make(ENV_ID, observer=task.observer, **env_kwargs)
-    vehicle = env.unwrapped.vehicle
-    ctrl = make_controller(task.controller, vehicle)
+    env = gym.make(ENV_ID, observer=task.observer, **json.loads(task.env_kwargs_json))
+    ctrl = make_controller(task.controller, env.unwrapped.vehicle)
     shield = split_shield(task.controller)[1] or bool(getattr(ctrl, "shield", False))
     env = wrap_env(env, shield, getattr(ctrl, "residual", 0.0), getattr(ctrl, "margin_schedule", None))
     obs, info = env.reset(seed=task.seed)
     if hasattr(ctrl, "reset"):
         ctrl.reset(env, info)
+    return env, ctrl, obs, info
+
+
+def run_episode(task: Task) -> dict[str, Any]:
+    """Run one episode; return its flat summary row (and, if ``task.record``, the per-step trace)."""
+    from agents.metrics import EpisodeAccumulator
+
+    env, ctrl, obs, info = start_episode(task)
     acc = EpisodeAccumulator()
     acc.start(info)
     keys = ("t_s", "position_m", "speed_mps", "true_limit_mps", "est_limit_mps", "command")
@@ -487,6 +493,7 @@ __all__ = [
     "run_tasks",
     "split_options",
     "split_shield",
+    "start_episode",
     "summarise",
     "write_csv",
 ]

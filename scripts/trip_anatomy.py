@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import math
 import statistics
 import sys
 from multiprocessing import get_context
@@ -36,35 +37,24 @@ PRIOR_STD_KEPT = 0.9
 """A trip "on the prior": the mass std at the trip still at least this share of its value at the start."""
 
 
-def replay(args: tuple[str, str, int, str]) -> dict[str, Any]:
-    """One episode; the trip's anatomy (``tripped`` False and the ending otherwise)."""
-    import gymnasium as gym
+def replay(task: Any) -> dict[str, Any]:
+    """One episode (an :class:`agents.evaluation.Task`); the trip's anatomy (``tripped`` False otherwise)."""
+    from agents.evaluation import controller_label, start_episode
 
-    import uuom_gym  # noqa: F401 - registers the env
-    from agents.evaluation import ENV_ID, controller_label, make_controller, split_shield
-    from agents.training import wrap_env
-
-    spec, observer, seed, env_kwargs_json = args
-    env = gym.make(ENV_ID, observer=observer, **json.loads(env_kwargs_json))
-    ctrl = make_controller(spec, env.unwrapped.vehicle)
-    shield = split_shield(spec)[1] or bool(getattr(ctrl, "shield", False))
-    env = wrap_env(env, shield, getattr(ctrl, "residual", 0.0), getattr(ctrl, "margin_schedule", None))
-    obs, info = env.reset(seed=seed)
-    if hasattr(ctrl, "reset"):
-        ctrl.reset(env, info)
+    env, ctrl, obs, info = start_episode(task)
     std0 = float(info["est_mass_std_kg"]) if "est_mass_std_kg" in info else float("nan")
     first_over_cautious = float("nan")
     prev = info
     while True:
         obs, _, term, trunc, info = env.step(ctrl.act(obs, info))
-        if first_over_cautious != first_over_cautious and info["speed_mps"] > info["est_speed_limit_2sigma_mps"]:
+        if math.isnan(first_over_cautious) and info["speed_mps"] > info["est_speed_limit_2sigma_mps"]:
             first_over_cautious = float(info["t_s"])
         if term or trunc:
             break
         prev = info
     env.close()
-    row: dict[str, Any] = {
-        "controller": controller_label(spec), "observer": observer, "seed": seed,
+    return {
+        "controller": controller_label(task.controller), "observer": task.observer, "seed": task.seed,
         "ending": info.get("termination") or ("time_limit" if trunc else ""),
         "tripped": info.get("termination") == "overspeed_trip",
         "true_mass_t": info["true_mass_kg"] / 1000.0, "t_s": float(info["t_s"]),
@@ -78,7 +68,6 @@ def replay(args: tuple[str, str, int, str]) -> dict[str, Any]:
         "first_over_cautious_s": first_over_cautious,
         "last_command": float(prev.get("command", float("nan"))),
     }
-    return row
 
 
 def trip_seeds(path: Path, label: str, observer: str) -> list[int]:
@@ -97,7 +86,7 @@ def summary_lines(rows: list[dict[str, Any]], n_episodes: int) -> list[str]:
     on_prior = [r for r in trips if r["std_share_of_prior"] >= PRIOR_STD_KEPT]
     over = [r for r in trips if r["first_over_cautious_s"] <= r["t_s"]]
     past = [r for r in trips if r["speed_mps"] > r["est_limit_mps"]]
-    if all(r["std_share_of_prior"] != r["std_share_of_prior"] for r in trips):  # NaN: no std at the start
+    if all(math.isnan(r["std_share_of_prior"]) for r in trips):  # no std at the start
         prior = "on the prior: - (the observer reports no mass uncertainty at the start)"
     else:
         prior = (f"on the prior (mass std still >= {PRIOR_STD_KEPT:.0%} of its start value): {len(on_prior)}; true mass "
@@ -114,7 +103,7 @@ def summary_lines(rows: list[dict[str, Any]], n_episodes: int) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from agents.evaluation import DEFAULT_SEED_BASE, controller_label
+    from agents.evaluation import DEFAULT_SEED_BASE, EvalConfig, EvalConfigError, check_config, controller_label
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--controller", required=True, help="a run directory or a reference controller's name")
@@ -123,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed-base", type=int, default=DEFAULT_SEED_BASE)
     ap.add_argument("--episodes-csv", type=Path, default=None,
                     help="replay only the overspeed trips of this uuom-evaluate episodes.csv")
-    ap.add_argument("--env-kwargs", default="{}", help="JSON env config (the policy's training env)")
+    ap.add_argument("--env-kwargs", default="{}", help="JSON env config (the policy's training env; not enforced)")
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--csv", type=Path, default=None, help="write the trip rows here")
     args = ap.parse_args(argv)
@@ -133,23 +122,21 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--env-kwargs: not JSON ({exc})")
     if not isinstance(env_kwargs, dict):
         ap.error("--env-kwargs: a JSON object expected")
-    if args.episodes < 1 or args.workers < 1:
-        ap.error("--episodes and --workers must be >= 1")
-    from agents.controllers import CONTROLLERS
-    from agents.evaluation import split_options, split_shield
-
-    base = split_shield(args.controller)[0]
-    if split_options(base)[0] not in CONTROLLERS and not (Path(base) / "model.zip").is_file():
-        ap.error(f"--controller {args.controller!r}: neither one of {', '.join(CONTROLLERS)} nor a run directory "
-                 "with a model.zip")
+    try:  # uuom-evaluate's own checks: controller, observer, env config, counts (a replay may run off the training env)
+        check_config(EvalConfig(controllers=[args.controller], observers=[args.observer], episodes=args.episodes,
+                                workers=args.workers, env_kwargs=env_kwargs, allow_env_shift=True,
+                                plot_observer=args.observer))
+    except EvalConfigError as exc:
+        ap.error(str(exc))
     label = controller_label(args.controller)
     if args.episodes_csv is not None:
         seeds = trip_seeds(args.episodes_csv, label, args.observer)
-        n_episodes = len(seeds)
     else:
         seeds = list(range(args.seed_base, args.seed_base + args.episodes))
-        n_episodes = len(seeds)
-    tasks = [(args.controller, args.observer, s, json.dumps(env_kwargs, sort_keys=True)) for s in seeds]
+    n_episodes = len(seeds)
+    from agents.evaluation import Task
+
+    tasks = [Task(args.controller, args.observer, s, json.dumps(env_kwargs, sort_keys=True)) for s in seeds]
     if args.workers > 1 and len(tasks) > 1:
         with get_context("spawn").Pool(args.workers) as pool:
             rows = pool.map(replay, tasks, chunksize=1)

@@ -24,6 +24,7 @@ in parallel with multiprocessing or on Ray (:mod:`agents.ray_support`).
 
 from __future__ import annotations
 
+import itertools
 import json
 import sys
 import time
@@ -368,9 +369,10 @@ def evaluate(config: EvalConfig) -> list[dict[str, Any]]:
     plot_episode(rec, episode_png)
     figures = [str(p) for p in (bars_png, tradeoff_png, episode_png) if p.exists()]
     md_ci = markdown_ci_table(summary)
-    (out / "summary.md").write_text(head + md + "\nWith 95 % intervals (Wilson for rates; bootstrap over tracks, "
-                                    "and over training seeds where pooled, for the interquartile mean of trip time / "
-                                    "oracle):\n\n" + md_ci
+    (out / "summary.md").write_text(head + md + "\nWith 95 % intervals (rates: Wilson, or where training seeds "
+                                    "are pooled a bootstrap over seeds and tracks that contains the Wilson interval over "
+                                    "the tracks; the interquartile mean of trip time / oracle: bootstrap over tracks, and "
+                                    "over training seeds where pooled):\n\n" + md_ci
                                     + f"\nFigures: {', '.join(figures)}.\n")
     if not config.quiet:
         print(md)
@@ -457,8 +459,12 @@ def _parts(dirs: list[Path]) -> str:
     for d in dirs:
         md = Path(d) / "summary.md"
         if md.exists():
-            head = [ln for ln in md.read_text().splitlines()[:2] if ln.strip()]
+            text = md.read_text().splitlines()
+            head = [ln for ln in text[:2] if ln.strip()]
             lines.append(f"- `{d}`: " + " ".join(head))
+            # a merge of merges keeps its parts' provenance, one level down
+            body = list(itertools.takewhile(lambda ln: not ln.startswith("|"), text[2:]))
+            lines += ["  " + ln for ln in body if ln.startswith("- ")]
     return ("Parts:\n" + "\n".join(lines) + "\n\n") if lines else ""
 
 

@@ -78,7 +78,7 @@ def plot_tradeoff(summary: list[dict[str, Any]], path: Path) -> None:
         ax.errorbar(x, y, xerr=xerr, yerr=yerr, fmt="o", color=f"C{i}", capsize=3, label=ctrl)
         for xk, yk, r in zip(x, y, rs):
             ax.annotate(r["observer"], (xk, yk), textcoords="offset points", xytext=(5, 4), fontsize=8)
-    ax.set_xlabel("overspeed trips (% of episodes, 95 % Wilson interval)")
+    ax.set_xlabel("overspeed trips (% of episodes, 95 % interval)")
     ax.set_ylabel("trip time / oracle (IQM, 95 % bootstrap interval)")
     ax.set_title("Estimator and safety: lower left is better")
     ax.grid(alpha=0.3)

@@ -19,8 +19,9 @@ RULES = ("speed_limit", "adhesion", "rollback", "sway", "overspeed_trip", "stall
 def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[dict[str, Any]]:
     """One summary row per (controller, observer).
 
-    Rows that carry a ``training_run`` (set by :func:`pool_rows`) are several trained policies under one label: their
-    trip-time interval resamples the training runs as well as the tracks, and ``training_runs`` counts them.
+    Rows that carry a ``training_run`` (set by :func:`pool_rows`) are several trained policies under one label:
+    ``training_runs`` counts them, and every interval resamples the training runs as well as the tracks (see
+    :func:`rate_interval` for the success and trip rates).
     """
     ref = {r["seed"]: r["trip_time_s"] for r in rows if r["controller"] == oracle_label and r["success"]}
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
@@ -38,11 +39,7 @@ def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[
         runs = sorted({str(r.get("training_run", "")) for r in rs})
         if len(runs) > 1:
             # several training seeds pooled under one label: resample the seeds and the tracks (two-level)
-            tracks = sorted({int(r["seed"]) for r in rs})
-            grid = np.full((len(runs), len(tracks)), np.nan)
-            for run, track, x in scored:
-                grid[runs.index(run), tracks.index(track)] = x
-            ci = bootstrap_ci(grid)
+            ci = bootstrap_ci(_seed_track_grid(scored, runs, sorted({int(r["seed"]) for r in rs})))
         else:
             ci = bootstrap_ci(ratios)
         energy = [r["energy_kj_per_tkm"] for r in rs if r["success"] and math.isfinite(r["energy_kj_per_tkm"])]
@@ -65,15 +62,47 @@ def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[
             "slope_err_deg": float(np.mean(slope_err)) if slope_err else float("nan"),
             "km": km,
         }
-        trips = row["overspeed_trips"]
-        row["trip_rate_lo"], row["trip_rate_hi"] = wilson_interval(trips, n)
-        row["success_lo"], row["success_hi"] = wilson_interval(sum(bool(r["success"]) for r in rs), n)
+        row["trip_rate_lo"], row["trip_rate_hi"] = rate_interval(rs, "overspeed_trip")
+        row["success_lo"], row["success_hi"] = rate_interval(rs, "success")
         for rule in RULES:
             row[f"viol_per_km/{rule}"] = sum(r[f"violations/{rule}"] for r in rs) / max(km, 1e-9)
         out.append(row)
     order = {o: i for i, o in enumerate(DEFAULT_OBSERVERS)}
     out.sort(key=lambda r: (r["controller"] != oracle_label, r["controller"], order.get(r["observer"], 99), r["observer"]))
     return out
+
+
+def _seed_track_grid(values: list[tuple[str, int, float]], runs: list[str], tracks: list[int]) -> np.ndarray:
+    """``(training run, track, value)`` triples as a ``(runs, tracks)`` array, NaN where a pair has no value."""
+    grid = np.full((len(runs), len(tracks)), np.nan)
+    for run, track, x in values:
+        grid[runs.index(run), tracks.index(track)] = x
+    return grid
+
+
+def rate_interval(rows: list[dict[str, Any]], key: str) -> tuple[float, float]:
+    """95 % interval of the rate of ``bool(row[key])`` over the episodes of one (controller, observer) row.
+
+    One trained policy (or a hand-written controller): the Wilson interval over its episodes. Several training
+    seeds pooled under one label (rows carrying ``training_run``): the episodes are not independent — a seed that
+    trips on 49 of 100 tracks and one that trips on 3 are two draws of the training, not 200 draws of a track — so
+    the interval is a two-level percentile bootstrap of the pooled rate (seeds, then tracks, resampled) widened to
+    contain the Wilson interval of the pooled rate over the *tracks* (as if one policy had scored it). The bootstrap
+    carries the spread between seeds; the Wilson part keeps a rate never seen (0 trips) from an interval of [0, 0].
+    """
+    n = len(rows)
+    if n == 0:
+        return math.nan, math.nan
+    runs = sorted({str(r.get("training_run", "")) for r in rows})
+    k = sum(bool(r[key]) for r in rows)
+    if len(runs) == 1:
+        return wilson_interval(k, n)
+    grid = _seed_track_grid([(str(r.get("training_run", "")), int(r["seed"]), float(bool(r[key]))) for r in rows],
+                            runs, sorted({int(r["seed"]) for r in rows}))
+    n_tracks = grid.shape[1]
+    w_lo, w_hi = wilson_interval(round(k / n * n_tracks), n_tracks)
+    b_lo, b_hi = bootstrap_ci(grid, np.mean)
+    return min(w_lo, b_lo), max(w_hi, b_hi)
 
 
 def pool_rows(rows: list[dict[str, Any]], pools: dict[str, list[str]]) -> list[dict[str, Any]]:
@@ -171,7 +200,8 @@ def markdown_table(summary: list[dict[str, Any]]) -> str:
 
 
 def markdown_ci_table(summary: list[dict[str, Any]]) -> str:
-    """The compact table with 95 % intervals: Wilson for rates, bootstrap over tracks for the trip-time IQM."""
+    """The compact table with 95 % intervals (:func:`summarise`'s: Wilson for the rates of one policy, a two-level
+    bootstrap for pooled training seeds; bootstrap over tracks, and seeds, for the trip-time IQM)."""
     lines = ["| controller | observer | success (95 % CI) | overspeed trips (95 % CI) | trip time / oracle, IQM (95 % CI) |",
              "|---|---|---|---|---|"]
 
@@ -192,5 +222,5 @@ def markdown_ci_table(summary: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["DEFAULT_OBSERVERS", "RULES", "markdown_ci_table", "markdown_table", "pool_rows", "read_episodes",
-           "summarise", "write_csv"]
+__all__ = ["DEFAULT_OBSERVERS", "RULES", "markdown_ci_table", "markdown_table", "pool_rows", "rate_interval",
+           "read_episodes", "summarise", "write_csv"]

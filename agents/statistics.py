@@ -13,15 +13,30 @@ import math
 from typing import Callable, Sequence
 
 import numpy as np
-from scipy.stats import trim_mean
 
 Statistic = Callable[[np.ndarray], float]
 
 
 def iqm(x: Sequence[float] | np.ndarray) -> float:
-    """Interquartile mean (25 % trimmed from each end); NaN for no values."""
+    """Interquartile mean (25 % trimmed from each end, as ``scipy.stats.trim_mean(x, 0.25)``); NaN for no values."""
     a = np.asarray(x, dtype=float).reshape(-1)
-    return float(trim_mean(a, 0.25)) if a.size else math.nan
+    return float(_row_iqms(a[None, :])[0]) if a.size else math.nan
+
+
+def _row_iqms(a: np.ndarray) -> np.ndarray:
+    """The IQM of the finite entries of each row of a 2-D array (NaN for a row with none).
+
+    Vectorised because the bootstrap takes thousands of them: ``scipy.stats.trim_mean`` costs ~2 ms a call in its
+    argument checks, which made summarising one evaluation table take tens of seconds.
+    """
+    s = np.sort(a, axis=1)  # NaN last
+    n = np.isfinite(s).sum(axis=1)
+    cut = (n * 0.25).astype(int)  # scipy's int(0.25 * n) from each end
+    cs = np.concatenate([np.zeros((len(s), 1)), np.cumsum(np.where(np.isfinite(s), s, 0.0), axis=1)], axis=1)
+    rows = np.arange(len(s))
+    kept = n - 2 * cut
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(kept > 0, (cs[rows, n - cut] - cs[rows, cut]) / kept, np.nan)
 
 
 def bootstrap_ci(scores: Sequence[float] | np.ndarray, statistic: Statistic = iqm, *, reps: int = 2000,
@@ -52,13 +67,18 @@ def bootstrap_ci(scores: Sequence[float] | np.ndarray, statistic: Statistic = iq
         return math.nan, math.nan
     rng = np.random.default_rng(seed)
     n_seeds, n_tracks = a.shape
-    stats = np.empty(reps)
-    for k in range(reps):
+    samples = np.empty((reps, n_seeds * n_tracks))
+    for k in range(reps):  # the draws in this order keep every committed interval as it was printed
         rows = rng.integers(0, n_seeds, n_seeds)
         cols = rng.integers(0, n_tracks, n_tracks)
-        sample = a[np.ix_(rows, cols)].reshape(-1)
-        sample = sample[np.isfinite(sample)]
-        stats[k] = statistic(sample) if sample.size else math.nan
+        samples[k] = a[np.ix_(rows, cols)].reshape(-1)
+    if statistic is iqm:
+        stats = _row_iqms(samples)
+    else:
+        stats = np.empty(reps)
+        for k in range(reps):
+            sample = samples[k][np.isfinite(samples[k])]
+            stats[k] = statistic(sample) if sample.size else math.nan
     alpha = 100.0 * (1.0 - level) / 2.0
     return float(np.nanpercentile(stats, alpha)), float(np.nanpercentile(stats, 100.0 - alpha))
 

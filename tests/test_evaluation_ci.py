@@ -84,3 +84,30 @@ def test_a_pooled_table_merged_again_keeps_every_seed(tmp_path) -> None:
     assert len(rows) == 40 + 120
     row = next(r for r in summarise(rows) if r["controller"] == "ppo")
     assert row["training_runs"] == 3 and row["episodes"] == 120
+
+
+def _tripping_rows(name: str, trips: int) -> list[dict]:
+    return [{**r, "success": r["seed"] >= trips, "overspeed_trip": r["seed"] < trips} for r in _policy_rows(name, 1.1)]
+
+
+def test_pooled_rates_carry_the_spread_between_seeds() -> None:
+    """Three seeds tripping on 2, 20 and 38 of 40 tracks pool to 50 %: the rate's interval must reach towards both
+    seeds' extremes, not be a Wilson interval over 120 'independent' episodes (about 41-59 %)."""
+    from agents.evaluation_table import pool_rows, rate_interval
+    from agents.statistics import wilson_interval
+
+    oracle = [r for r in _rows() if r["controller"] == "oracle"]
+    seeds = _tripping_rows("run_s0", 2) + _tripping_rows("run_s1", 20) + _tripping_rows("run_s2", 38)
+    row = next(r for r in summarise(pool_rows(oracle + seeds, {"ppo": ["run_s0", "run_s1", "run_s2"]}))
+               if r["controller"] == "ppo")
+    assert row["overspeed_trips"] == 60 and row["episodes"] == 120
+    naive = wilson_interval(60, 120)
+    assert row["trip_rate_lo"] < 0.2 < naive[0] and row["trip_rate_hi"] > 0.8 > naive[1]
+    assert abs(row["success_lo"] - (1 - row["trip_rate_hi"])) < 1e-9 and abs(row["success_hi"] - (1 - row["trip_rate_lo"])) < 1e-9
+    # one policy: still the Wilson interval over its episodes
+    one = _tripping_rows("run_s1", 20)
+    assert rate_interval(one, "overspeed_trip") == wilson_interval(20, 40)
+    # seeds that never trip: the interval is the Wilson interval over the 40 tracks, not [0, 0] and not over 120
+    clean = [{**r, "training_run": r["controller"]} for r in _tripping_rows("a", 0) + _tripping_rows("b", 0)]
+    lo, hi = rate_interval(clean, "overspeed_trip")
+    assert lo == 0.0 and abs(hi - wilson_interval(0, 40)[1]) < 1e-12 and hi > wilson_interval(0, 80)[1]

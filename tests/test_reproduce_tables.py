@@ -158,3 +158,27 @@ def _same_episode(got: dict[str, Any], want: dict[str, Any], stale: str) -> None
         stale, got["trip_time_s"], want["trip_time_s"])
     assert math.isclose(float(got["cost"]), want["cost"], rel_tol=1e-6, abs_tol=1e-9), (
         stale, got["cost"], want["cost"])
+
+
+@pytest.mark.parametrize("study", ["agents/observer_study_ppo", "agents/observer_study_rule_based",
+                                   "agents/light_memory_observers"])
+def test_committed_summary_is_its_episodes_summarised_by_this_tree(study):
+    """Each committed ``summary.csv`` beside a committed ``episodes.csv`` is what this tree's statistics make of those
+    episodes: a change to the table's statistics (it happened: the pooled rates' intervals, round 2, session 33)
+    leaves no summary printed with the old ones."""
+    import csv
+
+    from agents.evaluation_table import summarise
+
+    folder = ROOT / "results" / study
+    fresh = {(r["controller"], r["observer"]): r for r in summarise(read_episodes(folder / "episodes.csv"))}
+    with open(folder / "summary.csv", newline="") as fh:
+        committed = list(csv.DictReader(fh))
+    assert {(r["controller"], r["observer"]) for r in committed} == set(fresh)
+    for row in committed:
+        new = fresh[(row["controller"], row["observer"])]
+        for key, text in row.items():
+            if key in ("controller", "observer"):
+                continue
+            assert math.isclose(float(text), float(new[key]), rel_tol=1e-9, abs_tol=1e-12) or (
+                math.isnan(float(text)) and math.isnan(float(new[key]))), f"{study} {row['controller']} {key}: {text} vs {new[key]}"

@@ -190,3 +190,28 @@ def test_safety_gymnasium_six_value_step():
     assert (reward, cost, terminated, truncated) == (1.0, 0.25, False, False) and info["cost"] == 0.25
     with pytest.raises(ValueError, match="not finite"):
         SafetyGymnasiumStep(_CostEnv(float("nan"))).step(np.zeros(1))
+
+
+def test_caution_term_charges_speed_above_the_cautious_limit_shown():
+    """Off by default (the reward is unchanged); with a weight, each step pays ``w`` per m/s above the cautious limit
+    of the observation the action was chosen on, per second, and nothing below it."""
+    def run(weight):
+        env = gym.make("UUOM-Track-v0", reward_weights={"caution": weight}, track_length_m=(200.0, 200.0))
+        obs, _ = env.reset(seed=3)
+        base = env.unwrapped
+        out = []
+        for _ in range(60):  # full traction: past the 0.5 m/s the prior's pessimistic corner allows at the start
+            shown_mps = float(obs[13]) * base.obs_builder.v_max
+            obs, reward, term, trunc, info = env.step(np.array([1.0], dtype=np.float32))
+            out.append((base.speed_mps - shown_mps, info["rewards"]["caution"], reward))
+            if term or trunc:
+                break
+        env.close()
+        return out
+
+    off, on = run(0.0), run(10.0)
+    assert all(c == 0.0 for _, c, _ in off)
+    assert any(over > 0.05 for over, _, _ in on) and any(over < 0 for over, _, _ in on)
+    for (over, caution, reward), (_, _, reward_off) in zip(on, off):
+        assert caution == pytest.approx(-10.0 * max(over, 0.0) * 0.1, abs=1e-12)
+        assert reward == pytest.approx(reward_off + caution, abs=1e-9)  # the same run, one more term

@@ -17,7 +17,8 @@ from uuom_gym.sim.track import SCENARIO_NAMES as SCENARIOS
 RULES: tuple[str, ...] = ("speed_limit", "adhesion", "rollback", "sway", "overspeed_trip", "stall")
 """Safety rules of spec §6, the keys of ``info["violations"]`` and of ``cost_weights``."""
 
-REWARD_TERMS: tuple[str, ...] = ("progress", "arrival", "time", "energy", "safety", "failure", "idle", "shaping")
+REWARD_TERMS: tuple[str, ...] = ("progress", "arrival", "time", "energy", "safety", "failure", "idle", "shaping",
+                                 "caution")
 """Reward terms, the keys of ``info["rewards"]``."""
 
 
@@ -87,6 +88,7 @@ def default_config() -> dict[str, Any]:
             "failure": 10.0,
             "idle": 15.0,
             "shaping": 20.0,
+            "caution": 0.0,
         },
         "shaping_gamma": 1.0,
         # --- rendering --------------------------------------------------------------------------------------
@@ -160,7 +162,8 @@ CONFIG_DOCS: dict[str, str] = {
     "stall_speed_mps": "Stall (rule 6): slower than this on a grade the load cannot climb is a breach (m/s).",
     "cost_weights": "Weights of each rule's cost term in info['cost'] (see the cost table).",
     "reward_weights": "Weights of each reward term (see the reward table); 'shaping' scales the potential of "
-    "uuom_gym.envs.reward_shaping (0 switches shaping off).",
+    "uuom_gym.envs.reward_shaping (0 switches shaping off); 'caution' (default 0, off) charges each second spent "
+    "above the cautious limit of observation 13, per m/s above it (a training option: docs/rl.md §29).",
     "shaping_gamma": "Discount in the potential-based shaping term gamma*Phi(s') - Phi(s). 1 (default): the "
     "shaping sums to exactly 0 over every episode (returns comparable with the unshaped reward); for an agent "
     "discounting with gamma < 1 it then adds (1 - gamma) Phi(s') <= 0 per step, a small extra penalty near the "

@@ -13,6 +13,8 @@ term (key)      per policy step                                                 
 ``idle``        ``-w`` more when the failure is ``stopped_short`` (standing costs more    15
                 than an overspeed trip's -10 failure -10 cost, see below)
 ``shaping``     ``gamma Phi(s') - Phi(s)``, potential-based (:mod:`.reward_shaping`)    20 per m/s in Phi
+``caution``     ``-w * (v - cautious limit)+ * step duration``: speed above the limit    0 (off)
+                at the estimate's pessimistic corner (observation 13), per m/s per s
 ==============  =====================================================================  =======================
 
 The reward is the sum of the terms; ``info["rewards"]`` holds each one.
@@ -21,6 +23,11 @@ Why ``idle``: with failure = -10 for every ending, a policy that never moves (-1
 any attempt that trips before the station (-10 failure, -10 trip cost, +10 x the fraction covered). Measured:
 plain PPO on rev. 2 without this term had learnt by 100 000 steps to hold the brake at the start (deterministic
 policy: 0.0 m covered on held-out seeds 100000-100002, ``stopped_short`` after 60 s); docs/rl.md.
+
+Why ``caution`` (off by default): it is not potential-based, so it changes the optimal policy — towards the
+rule-based controller's, which keeps under the cautious limit and never trips. It is the dense form of what the
+trips teach sparsely: a policy that cannot yet tell a heavy train from the prior (the first second or two) or is
+told a mass that reads light is charged at once, on every episode, instead of on the few that trip (docs/rl.md §29).
 """
 
 from __future__ import annotations
@@ -52,11 +59,13 @@ def reward_terms(
     failed: bool,
     idle: bool = False,
     shaping: float = 0.0,
+    over_cautious_mps: float = 0.0,
 ) -> dict[str, float]:
     """The reward terms of one policy step (already weighted and signed; the reward is their sum).
 
     ``idle`` marks a ``stopped_short`` ending (``failed`` must be set too). ``shaping`` is the step's potential difference from :func:`uuom_gym.envs.reward_shaping.shaping_reward`
     (already weighted: the weight scales the potential).
+    ``over_cautious_mps`` is how far the speed is above the cautious limit the policy was shown (0 when under it).
     """
     if track_length_m <= 0:
         raise ValueError(f"track_length_m must be > 0, got {track_length_m!r}")
@@ -72,6 +81,7 @@ def reward_terms(
         "failure": -weights["failure"] if failed else 0.0,
         "idle": -weights["idle"] if idle else 0.0,
         "shaping": float(shaping),
+        "caution": -weights["caution"] * max(over_cautious_mps, 0.0) * step_s,
     }
     assert tuple(terms) == REWARD_TERMS
     return terms

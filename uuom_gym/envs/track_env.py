@@ -107,7 +107,8 @@ class UUOMTrackEnv(gym.Env):
     ``idle`` (-15 more when stopped short: standing must not beat an attempt that trips),
     ``shaping`` (potential-based, ``Phi(s') - Phi(s)`` with ``Phi = -20 x`` the speed in m/s above a gentle
     braking curve to the station and above 0.05 m/s below the true limit, ``Phi = 0`` at every terminal state,
-    so it sums to 0 over an episode; :mod:`uuom_gym.envs.reward_shaping`). Weights: ``reward_weights``,
+    so it sums to 0 over an episode; :mod:`uuom_gym.envs.reward_shaping`), ``caution`` (off by default: ``-w`` per
+    m/s above the cautious limit of entry 13, per second; a training option). Weights: ``reward_weights``,
     ``shaping_gamma``.
 
     ## Starting State
@@ -210,6 +211,8 @@ class UUOMTrackEnv(gym.Env):
     * v0 (rev. 14, no id change, behaviour unchanged): the registered ``fused`` learns its gravity blend from the first
       metre moved (``blend_from_start``, with ``early_blend_kept``); the env keeps the late rule its RL rows were
       computed with (``observers.PLANT_BLEND_OPTIONS``), so episodes are identical.
+    * v0 (rev. 15, no id change, behaviour unchanged): a ninth reward term, ``caution`` (speed above the cautious
+      limit, per second), weight 0 by default: rewards are unchanged, ``info["rewards"]`` has one more key.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
@@ -387,6 +390,8 @@ class UUOMTrackEnv(gym.Env):
             failed=failed,
             idle=termination == "stopped_short",
             shaping=shaping_reward(phi_before, phi_after, cfg["shaping_gamma"], terminated),
+            # the limit the policy was shown when it chose this action (the observation is rebuilt below)
+            over_cautious_mps=self.speed_mps - self._cautious_mps,
         )
         reward = float(sum(rewards.values()))
         self.episode_cost += rep.cost

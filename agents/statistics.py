@@ -18,7 +18,8 @@ Statistic = Callable[[np.ndarray], float]
 
 
 def iqm(x: Sequence[float] | np.ndarray) -> float:
-    """Interquartile mean (25 % trimmed from each end, as ``scipy.stats.trim_mean(x, 0.25)``); NaN for no values."""
+    """Interquartile mean (25 % trimmed from each end, as ``scipy.stats.trim_mean(x, 0.25)``) of the finite values;
+    NaN for none."""
     a = np.asarray(x, dtype=float).reshape(-1)
     return float(_row_iqms(a[None, :])[0]) if a.size else math.nan
 

@@ -74,9 +74,11 @@ def summarise(rows: list[dict[str, Any]], oracle_label: str = "oracle") -> list[
 
 def _seed_track_grid(values: list[tuple[str, int, float]], runs: list[str], tracks: list[int]) -> np.ndarray:
     """``(training run, track, value)`` triples as a ``(runs, tracks)`` array, NaN where a pair has no value."""
+    row_of = {run: i for i, run in enumerate(runs)}
+    col_of = {track: j for j, track in enumerate(tracks)}
     grid = np.full((len(runs), len(tracks)), np.nan)
     for run, track, x in values:
-        grid[runs.index(run), tracks.index(track)] = x
+        grid[row_of[run], col_of[track]] = x
     return grid
 
 

@@ -30,7 +30,7 @@ def _row_iqms(a: np.ndarray) -> np.ndarray:
     Vectorised because the bootstrap takes thousands of them: ``scipy.stats.trim_mean`` costs ~2 ms a call in its
     argument checks, which made summarising one evaluation table take tens of seconds.
     """
-    s = np.sort(a, axis=1)  # NaN last
+    s = np.sort(np.where(np.isfinite(a), a, np.nan), axis=1)  # the finite values first (±inf as missing, NaN last)
     n = np.isfinite(s).sum(axis=1)
     cut = (n * 0.25).astype(int)  # scipy's int(0.25 * n) from each end
     cs = np.concatenate([np.zeros((len(s), 1)), np.cumsum(np.where(np.isfinite(s), s, 0.0), axis=1)], axis=1)

@@ -103,7 +103,8 @@ def summary_lines(rows: list[dict[str, Any]], n_episodes: int) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from agents.evaluation import DEFAULT_SEED_BASE, EvalConfig, EvalConfigError, check_config, controller_label
+    from agents.evaluation import (DEFAULT_SEED_BASE, EvalConfig, EvalConfigError, Task, check_config,
+                                   controller_label)
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--controller", required=True, help="a run directory or a reference controller's name")
@@ -134,8 +135,6 @@ def main(argv: list[str] | None = None) -> int:
     else:
         seeds = list(range(args.seed_base, args.seed_base + args.episodes))
     n_episodes = len(seeds)
-    from agents.evaluation import Task
-
     tasks = [Task(args.controller, args.observer, s, json.dumps(env_kwargs, sort_keys=True)) for s in seeds]
     if args.workers > 1 and len(tasks) > 1:
         with get_context("spawn").Pool(args.workers) as pool:

@@ -91,6 +91,9 @@ def test_iqm_is_scipys_trimmed_mean_and_the_bootstrap_skips_nan() -> None:
     for n in (1, 2, 3, 4, 5, 9, 64, 301):
         x = rng.lognormal(0.0, 1.0, n)
         assert iqm(x) == pytest.approx(trim_mean(x, 0.25), rel=1e-12)
+    # ±inf and NaN are left out, wherever they sort
+    x = rng.lognormal(0.0, 1.0, 9)
+    assert iqm(np.r_[-np.inf, x, np.nan, np.inf]) == pytest.approx(trim_mean(x, 0.25), rel=1e-12)
     # the vectorised bootstrap statistic equals the per-resample one it replaced: scipy on the finite entries
     a = rng.normal(1.1, 0.1, (2, 30))
     a[1, ::4] = np.nan

@@ -85,7 +85,8 @@ def train_parser() -> argparse.ArgumentParser:
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--init-from", type=Path, default=None, metavar="DIR",
                     help="start from this run directory's (or checkpoints/step_<n>'s) policy and VecNormalize, its "
-                    "step count going on: the next leg of a curriculum (--timesteps is the total)")
+                    "step count going on: the next leg of a curriculum (--timesteps is the total); --hyperparams given "
+                    "with it replace the source's (a lin_<value> schedule falls over this leg)")
     ap.add_argument("--action-std-ceiling", type=float, nargs=3, default=None, metavar=("START", "END", "STEPS"),
                     help="PPO: cap the action std by a ceiling falling log-linearly from START to END over STEPS env "
                     "steps from the run's first step (docs/rl.md §27)")

@@ -1,11 +1,13 @@
 """rl-baselines3-zoo style hyperparameter files (``agents/hyperparams/<algo>.yml``) as :mod:`agents.training`
 reads them: ``key=value`` overrides checked against the file and the algorithm, the rl-zoo string expressions
-(``normalize``, ``policy_kwargs``), and the ``env_wrapper`` entry that sets the default shield / residual.
+(``normalize``, ``policy_kwargs``), rl-zoo's linear schedules (``learning_rate: lin_3e-4``), and the ``env_wrapper``
+entry that sets the default shield / residual.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +18,10 @@ ENV_ID = "UUOM-Track-v0"
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 SHIELD_WRAPPER = "agents.shield.ShieldWrapper"
 RESIDUAL_WRAPPER = "agents.residual.ResidualWrapper"
+LINEAR_PREFIX = "lin_"
+"""rl-zoo's spelling of a schedule falling linearly to 0: ``lin_3e-4``."""
+SCHEDULE_KEYS = ("learning_rate", "clip_range")
+"""Hyperparameters SB3 accepts as a schedule (a function of the progress remaining)."""
 
 
 class TrainConfigError(ValueError):
@@ -26,8 +32,9 @@ def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[s
                      env_id: str = ENV_ID) -> dict[str, Any]:
     """The rl-zoo-style YAML entry for ``env_id`` (default ``UUOM-Track-v0``) with ``key=value`` overrides applied.
 
-    An override of a key the file has must keep its kind (number, bool, string); a new key must be an argument
-    of the algorithm's constructor.
+    An override of a key the file has must keep its kind (number, bool, string; a number of
+    :data:`SCHEDULE_KEYS` may become ``lin_<number>``); a new key must be an argument of the algorithm's
+    constructor.
 
     Raises
     ------
@@ -93,10 +100,59 @@ def _check_kind(key: str, old: Any, new: Any, item: str) -> None:
             return "a number"
         return "a string" if isinstance(v, str) else type(v).__name__
 
+    if kind(old) == "a number" and isinstance(new, str) and key in SCHEDULE_KEYS:
+        linear_value(key, new)  # raises unless lin_<finite number>
+        return
     if kind(old) != kind(new):
         raise TrainConfigError(f"--hyperparams {item!r}: {key} must be {kind(old)} like {old!r}, got {new!r}")
     if kind(new) == "a number" and not math.isfinite(float(new)):
         raise TrainConfigError(f"--hyperparams {item!r}: {key} must be finite")
+
+
+def linear_value(key: str, text: str) -> float:
+    """The start value of a ``lin_<value>`` schedule of ``key``.
+
+    Raises
+    ------
+    TrainConfigError
+        ``text`` is not ``lin_`` followed by a finite number > 0.
+    """
+    if not text.startswith(LINEAR_PREFIX):
+        raise TrainConfigError(f"hyperparameter {key}: {text!r} is neither a number nor {LINEAR_PREFIX}<number>")
+    try:
+        value = float(text[len(LINEAR_PREFIX):])
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise TrainConfigError(f"hyperparameter {key}: {text!r} needs a finite number > 0 after {LINEAR_PREFIX!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class LinearToZero:
+    """A schedule falling linearly from ``value`` to 0 over this run's own steps (rl-zoo's ``lin_<value>``).
+
+    SB3 calls it with the progress remaining, ``1 - steps / total``, counted from step 0 even when a run starts
+    from another run's steps (``--init-from``). ``run_share`` is ``(total - first step) / total``: the schedule
+    holds ``value`` until this run's first step and reaches 0 at its last, so a curriculum leg gets the whole
+    decay, not its tail. A class, not a closure: SB3 pickles the schedule into ``model.zip``.
+    """
+
+    value: float
+    run_share: float = 1.0
+
+    def __call__(self, progress_remaining: float) -> float:
+        return self.value * min(max(progress_remaining, 0.0) / self.run_share, 1.0)
+
+
+def resolve_schedules(hp: dict[str, Any], first_step: int, total: int) -> dict[str, Any]:
+    """``hp`` with every ``lin_<value>`` of :data:`SCHEDULE_KEYS` replaced by a :class:`LinearToZero` over the
+    steps ``first_step .. total`` (``0 <= first_step < total``)."""
+    out = dict(hp)
+    for key in SCHEDULE_KEYS:
+        if isinstance(out.get(key), str):
+            out[key] = LinearToZero(linear_value(key, out[key]), (total - first_step) / total)
+    return out
 
 
 def evaluate_str(value: Any, key: str) -> Any:
@@ -138,11 +194,16 @@ def wrappers_from_env_wrapper(spec: Any) -> tuple[bool, float]:
 
 __all__ = [
     "HYPERPARAMS_DIR",
+    "LINEAR_PREFIX",
+    "LinearToZero",
     "RESIDUAL_WRAPPER",
+    "SCHEDULE_KEYS",
     "SHIELD_WRAPPER",
     "TrainConfigError",
     "evaluate_str",
     "load_hyperparams",
+    "linear_value",
     "parse_value",
+    "resolve_schedules",
     "wrappers_from_env_wrapper",
 ]

@@ -30,7 +30,7 @@ from typing import Any
 
 from agents.algos import ALGOS, algo_class
 from agents.checkpoints import Checkpoint, atomic_write, atomic_write_text, clean_partial, latest_checkpoint
-from agents.hyperparameters import (ENV_ID, TrainConfigError, evaluate_str, load_hyperparams,
+from agents.hyperparameters import (ENV_ID, TrainConfigError, evaluate_str, load_hyperparams, resolve_schedules,
                                     wrappers_from_env_wrapper)
 from uuom_gym.registration import env_kwargs_of
 
@@ -59,7 +59,8 @@ class TrainConfig:
 
     ``init_from``: a run directory or one of its ``checkpoints/step_<n>`` whose policy and VecNormalize this run
     starts from, its step count going on (``timesteps`` is the total): the next leg of a curriculum on another env
-    configuration. ``action_std_ceiling`` ``(start, end, steps)``: PPO's action standard deviation may not exceed a
+    configuration; hyperparameters named in ``hyperparams`` replace the source's (all but the network's), the rest
+    stay as it was trained. ``action_std_ceiling`` ``(start, end, steps)``: PPO's action standard deviation may not exceed a
     ceiling falling log-linearly from ``start`` to ``end`` over ``steps`` env steps from this run's first step, and
     ``end`` after (:class:`agents.training_callbacks.ActionStdCeiling`): the mean action must take over what the
     exploration noise did (docs/rl.md §27).
@@ -245,6 +246,7 @@ def plan(config: TrainConfig) -> _Plan:
         hp["policy_kwargs"] = evaluate_str(hp["policy_kwargs"], "policy_kwargs")
     for key in _ZOO_ONLY_KEYS:
         hp.pop(key, None)
+    resolve_schedules(hp, 0, 1)  # a malformed lin_<value> fails here, before any env starts
     _check_env(c.observer, env_kwargs, shield, residual, margin_schedule)
     run_dir = Path(c.run_dir) if c.run_dir is not None else Path(c.log_dir) / run_dir_name(
         c.algo, c.observer, c.seed, shield, residual, margin_schedule is not None)
@@ -315,6 +317,23 @@ def train(config: TrainConfig) -> Path:
     return _learn(config, p, record, resume, init)
 
 
+_FIXED_BY_INIT = ("policy", "policy_kwargs")
+"""Hyperparameters that shape the network: a run started from another run's policy cannot change them."""
+
+
+def _init_overrides(config: TrainConfig, p: _Plan) -> dict[str, Any]:
+    """The hyperparameters named on the command line (``--hyperparams``) of a run started with ``init_from``:
+    they replace the source model's (its learning rate, rollout length, ...); the rest stay as it was trained.
+    A ``lin_<value>`` schedule falls over this run's steps, from the source's step count to ``p.total``."""
+    keys = [item.split("=", 1)[0] for item in config.hyperparams]
+    fixed = [k for k in keys if k in _FIXED_BY_INIT]
+    if fixed:
+        raise TrainConfigError(f"--hyperparams {fixed[0]}: cannot change the network of init_from {config.init_from}")
+    first = _saved_steps(Path(config.init_from) / "model.zip")
+    resolved = resolve_schedules({k: p.hp[k] for k in keys if k in p.hp}, first, p.total)
+    return {k: v for k, v in resolved.items() if k not in ("n_envs", "n_timesteps", "normalize", "env_wrapper")}
+
+
 def _saved_steps(model_zip: Path) -> int:
     """The step count a saved SB3 model was at (its ``data`` entry; the parameters are not loaded)."""
     from stable_baselines3.common.save_util import load_from_zip_file
@@ -360,7 +379,8 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
                     raise TrainConfigError(f"checkpoint {start.path} has no vecnormalize.pkl")
                 venv = VecNormalize.load(str(start.vecnormalize), venv)
                 venv.training = True
-            model = cls.load(start.model, env=venv, device=config.device)
+            model = cls.load(start.model, env=venv, device=config.device,
+                             **(_init_overrides(config, p) if resume is None else {}))
             if start.replay_buffer is not None and hasattr(model, "load_replay_buffer"):
                 model.load_replay_buffer(start.replay_buffer)
             if resume is None and model.seed != config.seed:
@@ -374,7 +394,8 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
             if p.normalize is not None:
                 venv = VecNormalize(venv, **p.normalize)
             try:
-                model = cls(p.policy, venv, seed=config.seed, device=config.device, verbose=0, **p.hp)
+                model = cls(p.policy, venv, seed=config.seed, device=config.device, verbose=0,
+                            **resolve_schedules(p.hp, 0, p.total))
             except (TypeError, ValueError, AssertionError) as exc:
                 raise TrainConfigError(f"{config.algo} rejects the hyperparameters: {exc}") from None
         run_dir.mkdir(parents=True, exist_ok=True)

@@ -267,6 +267,55 @@ def test_init_from_runs_with_its_own_seed(tmp_path):
     assert (params[1][key] == params[2][key]).all()  # the same seed, the same run
 
 
+def test_init_from_takes_the_hyperparameters_named_and_a_linear_schedule_falls_over_the_leg(tmp_path):
+    """--hyperparams with --init-from replace the source's (they were ignored: SB3's load restores the saved ones);
+    ``lin_<value>`` falls from the value at this leg's first step to 0 at its last."""
+    from stable_baselines3 import PPO
+
+    from agents.hyperparameters import LinearToZero
+
+    first = train(_config(tmp_path / "a", 512, shield=False, residual=0.0,
+                          hyperparams=[*TINY_HP, "learning_rate=lin_2e-3"]))
+    assert PPO.load(first / "model.zip", device="cpu").learning_rate == LinearToZero(2e-3)  # a fresh run
+    second = train(_config(tmp_path / "b", 1536, shield=False, residual=0.0, init_from=first,
+                           hyperparams=["n_steps=128", "learning_rate=lin_1e-3", "clip_range=lin_0.1"]))
+    model = PPO.load(second / "model.zip", device="cpu")
+    assert model.n_steps == 128 and model.n_epochs == 2  # named: replaced; not named: the source's
+    assert model.learning_rate == LinearToZero(1e-3, 1024 / 1536)
+    assert model.lr_schedule(1 - 512 / 1536) == pytest.approx(1e-3)  # this leg's first step
+    assert model.lr_schedule(1 - 1024 / 1536) == pytest.approx(5e-4)
+    assert model.lr_schedule(0.0) == 0.0 and model.clip_range(1.0) == pytest.approx(0.1)
+    # the optimiser ran on the schedule: its last update's rate is the schedule's near the end, far below 1e-3
+    assert model.policy.optimizer.param_groups[0]["lr"] < 1e-3 * 256 / 1024 + 1e-12
+    json_hp = json.loads((second / "config.json").read_text())["hyperparams"]
+    assert json_hp["learning_rate"] == "'lin_1e-3'"
+
+
+def test_linear_schedule_on_a_fresh_run_and_its_bad_spellings():
+    from agents.hyperparameters import LinearToZero, load_hyperparams, resolve_schedules
+
+    hp = load_hyperparams("ppo", overrides=["learning_rate=lin_3e-4"])
+    sched = resolve_schedules(hp, 0, 1000)["learning_rate"]
+    assert sched == LinearToZero(3e-4) and sched(1.0) == pytest.approx(3e-4) and sched(0.25) == pytest.approx(7.5e-5)
+    assert resolve_schedules(hp, 0, 1000)["n_steps"] == hp["n_steps"]  # only schedule keys are touched
+    import pickle
+
+    assert pickle.loads(pickle.dumps(sched)) == sched  # SB3 saves it into model.zip
+    for bad, fragment in (("lin_abc", "finite number > 0"), ("lin_-1", "finite number > 0"),
+                          ("fast", "neither a number nor lin_")):
+        with pytest.raises(TrainConfigError, match=fragment):
+            load_hyperparams("ppo", overrides=[f"learning_rate={bad}"])
+    with pytest.raises(TrainConfigError, match="n_steps must be a number"):
+        load_hyperparams("ppo", overrides=["n_steps=lin_1024"])  # not a schedule key
+
+
+def test_init_from_cannot_change_the_network(tmp_path):
+    first = train(_config(tmp_path / "a", 512, shield=False, residual=0.0))
+    with pytest.raises(TrainConfigError, match="cannot change the network"):
+        train(_config(tmp_path / "b", 1024, shield=False, residual=0.0, init_from=first,
+                      hyperparams=["policy_kwargs=dict(net_arch=[8])"]))
+
+
 def test_init_from_a_file_that_is_not_a_model_is_named(tmp_path):
     (tmp_path / "bad").mkdir()
     (tmp_path / "bad" / "model.zip").write_bytes(b"not a zip")

@@ -321,16 +321,16 @@ _FIXED_BY_INIT = ("policy", "policy_kwargs")
 """Hyperparameters that shape the network: a run started from another run's policy cannot change them."""
 
 
-def _init_overrides(config: TrainConfig, p: _Plan) -> dict[str, Any]:
+def _init_overrides(config: TrainConfig, p: _Plan, first_step: int) -> dict[str, Any]:
     """The hyperparameters named on the command line (``--hyperparams``) of a run started with ``init_from``:
     they replace the source model's (its learning rate, rollout length, ...); the rest stay as it was trained.
-    A ``lin_<value>`` schedule falls over this run's steps, from the source's step count to ``p.total``."""
+    A ``lin_<value>`` schedule falls over this run's steps, from the source's step count ``first_step`` to
+    ``p.total``."""
     keys = [item.split("=", 1)[0] for item in config.hyperparams]
     fixed = [k for k in keys if k in _FIXED_BY_INIT]
     if fixed:
         raise TrainConfigError(f"--hyperparams {fixed[0]}: cannot change the network of init_from {config.init_from}")
-    first = _saved_steps(Path(config.init_from) / "model.zip")
-    resolved = resolve_schedules({k: p.hp[k] for k in keys if k in p.hp}, first, p.total)
+    resolved = resolve_schedules({k: p.hp[k] for k in keys if k in p.hp}, first_step, p.total)
     return {k: v for k, v in resolved.items() if k not in ("n_envs", "n_timesteps", "normalize", "env_wrapper")}
 
 
@@ -380,7 +380,7 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
                 venv = VecNormalize.load(str(start.vecnormalize), venv)
                 venv.training = True
             model = cls.load(start.model, env=venv, device=config.device,
-                             **(_init_overrides(config, p) if resume is None else {}))
+                             **(_init_overrides(config, p, record["init_steps"]) if resume is None else {}))
             if start.replay_buffer is not None and hasattr(model, "load_replay_buffer"):
                 model.load_replay_buffer(start.replay_buffer)
             if resume is None and model.seed != config.seed:

@@ -161,7 +161,7 @@ def _same_episode(got: dict[str, Any], want: dict[str, Any], stale: str) -> None
 
 
 @pytest.mark.parametrize("study", ["agents/observer_study_ppo", "agents/observer_study_rule_based",
-                                   "agents/light_memory_observers"])
+                                   "agents/light_memory_observers", "rl/traction_exploration/eval/ppo_ceiling_5seeds"])
 def test_committed_summary_is_its_episodes_summarised_by_this_tree(study):
     """Each committed ``summary.csv`` beside a committed ``episodes.csv`` is what this tree's statistics make of those
     episodes: a change to the table's statistics (it happened: the pooled rates' intervals, round 2, session 33)

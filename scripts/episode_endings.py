@@ -1,0 +1,41 @@
+#!/usr/bin/env python
+"""How the episodes of ``uuom-evaluate`` runs end, per controller (per training seed in a pooled merge): arrived,
+overspeed trip, overrun, stopped short at the start / near the station / elsewhere, ... (:mod:`agents.episode_endings`).
+
+Usage::
+
+    python scripts/episode_endings.py results/rl/traction_exploration/eval/ppo_ceiling_5seeds/episodes.csv
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from agents.episode_endings import ending_counts, endings_markdown
+from agents.evaluation_table import read_episodes
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("episodes", type=Path, nargs="+", help="episodes.csv files of uuom-evaluate runs or merges")
+    ap.add_argument("--controllers", nargs="*", default=None, help="only these (controller or training run names)")
+    args = ap.parse_args(argv)
+    rows = []
+    for path in args.episodes:
+        if not path.is_file():
+            ap.error(f"{path}: no such file")
+        rows.extend(read_episodes(path))
+    counts = ending_counts(rows)
+    if args.controllers:
+        missing = [c for c in args.controllers if c not in counts]
+        if missing:
+            ap.error(f"no episodes of {', '.join(missing)} (have: {', '.join(counts)})")
+        counts = {c: counts[c] for c in args.controllers}
+    print(endings_markdown(counts))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

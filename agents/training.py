@@ -330,8 +330,8 @@ def _init_overrides(config: TrainConfig, p: _Plan, first_step: int) -> dict[str,
     fixed = [k for k in keys if k in _FIXED_BY_INIT]
     if fixed:
         raise TrainConfigError(f"--hyperparams {fixed[0]}: cannot change the network of init_from {config.init_from}")
-    resolved = resolve_schedules({k: p.hp[k] for k in keys if k in p.hp}, first_step, p.total)
-    return {k: v for k, v in resolved.items() if k not in ("n_envs", "n_timesteps", "normalize", "env_wrapper")}
+    # n_envs, n_timesteps, normalize and env_wrapper are not model attributes: plan() took them out of p.hp
+    return resolve_schedules({k: p.hp[k] for k in keys if k in p.hp}, first_step, p.total)
 
 
 def _saved_steps(model_zip: Path) -> int:

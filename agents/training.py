@@ -60,10 +60,10 @@ class TrainConfig:
     ``init_from``: a run directory or one of its ``checkpoints/step_<n>`` whose policy and VecNormalize this run
     starts from, its step count going on (``timesteps`` is the total): the next leg of a curriculum on another env
     configuration; hyperparameters named in ``hyperparams`` replace the source's (all but the network's), the rest
-    stay as it was trained. ``action_std_ceiling`` ``(start, end, steps)``: PPO's action standard deviation may not exceed a
-    ceiling falling log-linearly from ``start`` to ``end`` over ``steps`` env steps from this run's first step, and
-    ``end`` after (:class:`agents.training_callbacks.ActionStdCeiling`): the mean action must take over what the
-    exploration noise did (docs/rl.md §27).
+    stay as it was trained. ``action_std_ceiling`` ``(start, end, steps)``: PPO's action standard deviation may not
+    exceed a ceiling falling log-linearly from ``start`` to ``end`` over ``steps`` env steps from this run's first
+    step, and ``end`` after (:class:`agents.training_callbacks.ActionStdCeiling`): the mean action must take over what
+    the exploration noise did (docs/rl.md §27).
     """
 
     algo: str = "ppo"
@@ -309,6 +309,10 @@ def train(config: TrainConfig) -> Path:
             raise TrainConfigError(f"timesteps ({p.total}) is the total: it must exceed init_from's step count "
                                    f"({init.steps})")
         record.update(init_from=str(config.init_from), init_steps=init.steps)
+        fixed = [k for k in _named_hyperparams(config) if k in _FIXED_BY_INIT]
+        if fixed and resume is None:  # before any env starts
+            raise TrainConfigError(f"--hyperparams {fixed[0]}: cannot change the network of init_from "
+                                   f"{config.init_from}")
     if config.action_std_ceiling is not None:
         start, end, steps = config.action_std_ceiling
         record["action_std_ceiling"] = [float(start), float(end), int(steps)]
@@ -321,17 +325,18 @@ _FIXED_BY_INIT = ("policy", "policy_kwargs")
 """Hyperparameters that shape the network: a run started from another run's policy cannot change them."""
 
 
+def _named_hyperparams(config: TrainConfig) -> list[str]:
+    """The keys given on the command line (``--hyperparams key=value ...``)."""
+    return [item.split("=", 1)[0] for item in config.hyperparams]
+
+
 def _init_overrides(config: TrainConfig, p: _Plan, first_step: int) -> dict[str, Any]:
     """The hyperparameters named on the command line (``--hyperparams``) of a run started with ``init_from``:
-    they replace the source model's (its learning rate, rollout length, ...); the rest stay as it was trained.
-    A ``lin_<value>`` schedule falls over this run's steps, from the source's step count ``first_step`` to
-    ``p.total``."""
-    keys = [item.split("=", 1)[0] for item in config.hyperparams]
-    fixed = [k for k in keys if k in _FIXED_BY_INIT]
-    if fixed:
-        raise TrainConfigError(f"--hyperparams {fixed[0]}: cannot change the network of init_from {config.init_from}")
+    they replace the source model's (its learning rate, rollout length, ...); the rest stay as it was trained
+    (:func:`train` refused the network's, :data:`_FIXED_BY_INIT`). A ``lin_<value>`` schedule falls over this
+    run's steps, from the source's step count ``first_step`` to ``p.total``."""
     # n_envs, n_timesteps, normalize and env_wrapper are not model attributes: plan() took them out of p.hp
-    return resolve_schedules({k: p.hp[k] for k in keys if k in p.hp}, first_step, p.total)
+    return resolve_schedules({k: p.hp[k] for k in _named_hyperparams(config) if k in p.hp}, first_step, p.total)
 
 
 def _saved_steps(model_zip: Path) -> int:

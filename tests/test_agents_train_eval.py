@@ -314,6 +314,7 @@ def test_init_from_cannot_change_the_network(tmp_path):
     with pytest.raises(TrainConfigError, match="cannot change the network"):
         train(_config(tmp_path / "b", 1024, shield=False, residual=0.0, init_from=first,
                       hyperparams=["policy_kwargs=dict(net_arch=[8])"]))
+    assert not (tmp_path / "b").exists()
 
 
 def test_init_from_a_file_that_is_not_a_model_is_named(tmp_path):

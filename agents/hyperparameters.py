@@ -22,6 +22,8 @@ LINEAR_PREFIX = "lin_"
 """rl-zoo's spelling of a schedule falling linearly to 0: ``lin_3e-4``."""
 SCHEDULE_KEYS = ("learning_rate", "clip_range")
 """Hyperparameters SB3 accepts as a schedule (a function of the progress remaining)."""
+NOISE_TYPES = ("normal", "ornstein-uhlenbeck")
+"""rl-zoo's ``noise_type`` values: the action noise of an off-policy learner (with ``noise_std``)."""
 
 
 class TrainConfigError(ValueError):
@@ -65,7 +67,8 @@ def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[s
             raise TrainConfigError(f"--hyperparams {item!r}: {text!r} is not a YAML value") from None
         if key in hp:
             _check_kind(key, hp[key], value, item)
-        elif key not in accepted and key not in ("n_envs", "n_timesteps", "normalize", "policy", "env_wrapper"):
+        elif key not in accepted and key not in ("n_envs", "n_timesteps", "normalize", "policy", "env_wrapper",
+                                                 "noise_type", "noise_std"):
             raise TrainConfigError(f"--hyperparams {item!r}: {algo} has no hyperparameter {key!r}")
         hp[key] = value
     return hp
@@ -155,6 +158,30 @@ def resolve_schedules(hp: dict[str, Any], first_step: int, total: int) -> dict[s
     return out
 
 
+def action_noise(hp: dict[str, Any], n_actions: int) -> Any:
+    """rl-zoo's ``noise_type`` / ``noise_std`` entries of ``hp`` (removed from it) as an SB3 action noise, or None.
+
+    Raises
+    ------
+    TrainConfigError
+        An unknown ``noise_type``, a ``noise_std`` that is not a finite number >= 0, or one key without the other.
+    """
+    kind, std = hp.pop("noise_type", None), hp.pop("noise_std", None)
+    if kind is None and std is None:
+        return None
+    if kind is None or std is None:
+        raise TrainConfigError("hyperparameters noise_type and noise_std go together (rl-zoo's action noise)")
+    if kind not in NOISE_TYPES:
+        raise TrainConfigError(f"hyperparameter noise_type: {kind!r} is not one of {', '.join(NOISE_TYPES)}")
+    if isinstance(std, bool) or not isinstance(std, (int, float)) or not (math.isfinite(std) and std >= 0):
+        raise TrainConfigError(f"hyperparameter noise_std must be a finite number >= 0, got {std!r}")
+    import numpy as np
+    from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+
+    cls = NormalActionNoise if kind == "normal" else OrnsteinUhlenbeckActionNoise
+    return cls(mean=np.zeros(n_actions), sigma=float(std) * np.ones(n_actions))
+
+
 def evaluate_str(value: Any, key: str) -> Any:
     # rl-zoo stores policy_kwargs / normalize as Python expressions in strings.
     if not isinstance(value, str):
@@ -196,10 +223,12 @@ __all__ = [
     "HYPERPARAMS_DIR",
     "LINEAR_PREFIX",
     "LinearToZero",
+    "NOISE_TYPES",
     "RESIDUAL_WRAPPER",
     "SCHEDULE_KEYS",
     "SHIELD_WRAPPER",
     "TrainConfigError",
+    "action_noise",
     "evaluate_str",
     "load_hyperparams",
     "linear_value",

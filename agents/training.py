@@ -30,8 +30,8 @@ from typing import Any
 
 from agents.algos import ALGOS, algo_class
 from agents.checkpoints import Checkpoint, atomic_write, atomic_write_text, clean_partial, latest_checkpoint
-from agents.hyperparameters import (ENV_ID, TrainConfigError, evaluate_str, load_hyperparams, resolve_schedules,
-                                    wrappers_from_env_wrapper)
+from agents.hyperparameters import (ENV_ID, TrainConfigError, action_noise, evaluate_str, load_hyperparams,
+                                    resolve_schedules, wrappers_from_env_wrapper)
 from uuom_gym.registration import env_kwargs_of
 
 EVAL_SEED_OFFSET = 1_000_000
@@ -211,8 +211,9 @@ def plan(config: TrainConfig) -> _Plan:
                                "checkpoints/step_<n> directory)")
     if c.action_std_ceiling is not None:
         start, end, steps = c.action_std_ceiling
-        if c.algo == "sac":
-            raise TrainConfigError("action_std_ceiling: SAC has no state-independent action std (PPO only)")
+        if c.algo not in ("ppo", "ppo-lag"):
+            raise TrainConfigError(f"action_std_ceiling: {c.algo.upper()} has no state-independent action std "
+                                   "(PPO only)")
         from agents.training_callbacks import ActionStdCeiling
 
         try:
@@ -247,6 +248,8 @@ def plan(config: TrainConfig) -> _Plan:
     for key in _ZOO_ONLY_KEYS:
         hp.pop(key, None)
     resolve_schedules(hp, 0, 1)  # a malformed lin_<value> fails here, before any env starts
+    if action_noise(dict(hp), 1) is not None and c.algo not in ("sac", "td3"):
+        raise TrainConfigError(f"hyperparameters noise_type / noise_std: {c.algo} takes no action noise (sac, td3)")
     _check_env(c.observer, env_kwargs, shield, residual, margin_schedule)
     run_dir = Path(c.run_dir) if c.run_dir is not None else Path(c.log_dir) / run_dir_name(
         c.algo, c.observer, c.seed, shield, residual, margin_schedule is not None)
@@ -336,7 +339,40 @@ def _init_overrides(config: TrainConfig, p: _Plan, first_step: int) -> dict[str,
     (:func:`train` refused the network's, :data:`_FIXED_BY_INIT`). A ``lin_<value>`` schedule falls over this
     run's steps, from the source's step count ``first_step`` to ``p.total``."""
     # n_envs, n_timesteps, normalize and env_wrapper are not model attributes: plan() took them out of p.hp
-    return resolve_schedules({k: p.hp[k] for k in _named_hyperparams(config) if k in p.hp}, first_step, p.total)
+    named = [k for k in _named_hyperparams(config) if k in p.hp and k not in _NOISE_KEYS]  # noise: _replace_noise
+    return _model_kwargs({k: p.hp[k] for k in named}, first_step, p.total)
+
+
+_NOISE_KEYS = ("noise_type", "noise_std")
+
+
+def _replace_noise(model: Any, config: TrainConfig, p: _Plan) -> None:
+    """A named ``noise_type`` and/or ``noise_std`` replace the loaded model's action noise; the one not named stays
+    the source's (a leg that lowers the std keeps the source's kind of noise)."""
+    named = [k for k in _named_hyperparams(config) if k in _NOISE_KEYS]
+    if not named:
+        return
+    from stable_baselines3.common.noise import OrnsteinUhlenbeckActionNoise
+
+    old = getattr(model.action_noise, "base_noise", model.action_noise)  # SB3 vectorises it over the envs
+    source = {} if old is None else {
+        "noise_type": "ornstein-uhlenbeck" if isinstance(old, OrnsteinUhlenbeckActionNoise) else "normal",
+        "noise_std": float(old._sigma[0]),
+    }
+    spec = {**source, **{k: p.hp[k] for k in named}}
+    if len(spec) < 2:
+        raise TrainConfigError(f"--hyperparams {named[0]}: the source model has no action noise; name noise_type "
+                               "and noise_std")
+    model.action_noise = action_noise(spec, 1)
+
+
+def _model_kwargs(hp: dict[str, Any], first_step: int, total: int) -> dict[str, Any]:
+    """The SB3 constructor / ``load`` arguments of ``hp``: schedules resolved, rl-zoo's action noise built."""
+    kwargs = resolve_schedules(hp, first_step, total)
+    noise = action_noise(kwargs, 1)  # the env's action is one number (UUOM-Track-v0's Action Space)
+    if noise is not None:
+        kwargs["action_noise"] = noise
+    return kwargs
 
 
 def _saved_steps(model_zip: Path) -> int:
@@ -386,6 +422,8 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
                 venv.training = True
             model = cls.load(start.model, env=venv, device=config.device,
                              **(_init_overrides(config, p, record["init_steps"]) if resume is None else {}))
+            if resume is None:
+                _replace_noise(model, config, p)
             if start.replay_buffer is not None and hasattr(model, "load_replay_buffer"):
                 model.load_replay_buffer(start.replay_buffer)
             if resume is None and model.seed != config.seed:
@@ -400,7 +438,7 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
                 venv = VecNormalize(venv, **p.normalize)
             try:
                 model = cls(p.policy, venv, seed=config.seed, device=config.device, verbose=0,
-                            **resolve_schedules(p.hp, 0, p.total))
+                            **_model_kwargs(p.hp, 0, p.total))
             except (TypeError, ValueError, AssertionError) as exc:
                 raise TrainConfigError(f"{config.algo} rejects the hyperparameters: {exc}") from None
         run_dir.mkdir(parents=True, exist_ok=True)

@@ -54,8 +54,10 @@ def main(argv: list[str] | None = None) -> int:
     if "--" in argv:
         i = argv.index("--")
         argv, extra = argv[:i], argv[i + 1 :]
+    from agents.algos import ALGOS
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--algo", default="ppo", choices=("ppo", "sac", "ppo-lag"))
+    ap.add_argument("--algo", default="ppo", choices=ALGOS)
     ap.add_argument("--observers", nargs="+", default=["dffrls-aekf"])
     ap.add_argument("--seeds", nargs="+", type=int, default=[0])
     ap.add_argument("--timesteps", type=int, default=None)

@@ -97,6 +97,47 @@ def test_sac_checkpoint_holds_the_replay_buffer(tmp_path):
     assert cks[-1].replay_buffer is not None and cks[0].replay_buffer is None
 
 
+def test_td3_trains_with_rl_zoo_action_noise_evaluates_and_a_leg_replaces_the_noise(tmp_path):
+    """TD3 (deterministic actor) with td3.yml's ``noise_type`` / ``noise_std``; ``--init-from`` with a new
+    ``noise_std`` keeps the source's noise type."""
+    from stable_baselines3 import TD3
+    from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+
+    hp = ["learning_starts=100", "batch_size=32", "buffer_size=2000"]
+    first = train(_config(tmp_path / "a", 400, algo="td3", checkpoint_freq=0, shield=False, residual=0.0,
+                          hyperparams=[*hp, "noise_type=ornstein-uhlenbeck", "noise_std=0.2"]))
+    model = TD3.load(first / "model.zip", device="cpu")
+    noise = getattr(model.action_noise, "base_noise", model.action_noise)  # SB3 vectorises it over the envs
+    assert isinstance(noise, OrnsteinUhlenbeckActionNoise) and noise._sigma == pytest.approx([0.2])
+    second = train(_config(tmp_path / "b", 800, algo="td3", checkpoint_freq=0, shield=False, residual=0.0,
+                           init_from=first, hyperparams=["noise_std=0.05"]))
+    noise = TD3.load(second / "model.zip", device="cpu").action_noise
+    noise = getattr(noise, "base_noise", noise)
+    assert isinstance(noise, OrnsteinUhlenbeckActionNoise) and noise._sigma == pytest.approx([0.05])
+    assert not isinstance(noise, NormalActionNoise)
+    summary = evaluate(EvalConfig(controllers=[str(second)], observers=["oracle"], episodes=1, workers=1,
+                                  env_kwargs=dict(TINY_ENV), out=tmp_path / "eval", quiet=True))
+    assert summary[0]["episodes"] == 1
+
+
+@pytest.mark.parametrize("algo, hp, fragment", [
+    ("td3", ["noise_type=pink"], "noise_type: 'pink' is not one of normal, ornstein-uhlenbeck"),
+    ("td3", ["noise_std=-0.1"], "noise_std must be a finite number >= 0"),
+    ("sac", ["noise_std=0.1"], "noise_type and noise_std go together"),
+    ("ppo", [*TINY_HP, "noise_type=normal", "noise_std=0.1"], "ppo takes no action noise"),
+    ("td3", ["learning_starts=10"], None),
+])
+def test_bad_action_noise_is_named_before_anything_starts(tmp_path, algo, hp, fragment):
+    from agents.training import plan
+
+    if fragment is None:  # td3.yml's own noise passes
+        plan(_config(tmp_path / "r", 512, algo=algo, hyperparams=hp))
+        return
+    with pytest.raises(TrainConfigError, match=fragment.replace("(", r"\(")):
+        plan(_config(tmp_path / "r", 512, algo=algo, hyperparams=hp))
+    assert not (tmp_path / "r").exists()
+
+
 TINY_CLI = ["--observer", "oracle", "--n-envs", "2", "--eval-freq", "0", "--no-progress",
             "--env-kwargs", json.dumps(TINY_ENV), "--hyperparams", *TINY_HP]
 
@@ -246,6 +287,7 @@ def test_init_from_starts_a_new_leg_and_the_std_ceiling_caps_the_noise(tmp_path)
     (dict(action_std_ceiling=(0.1, 0.3, 100)), "0 < END <= START"),
     (dict(action_std_ceiling=(0.3, 0.1, 0)), "STEPS a whole number"),
     (dict(algo="sac", action_std_ceiling=(0.3, 0.1, 100)), "PPO only"),
+    (dict(algo="td3", action_std_ceiling=(0.3, 0.1, 100)), "TD3 has no state-independent action std"),
     (dict(init_from=ROOT / "results" / "rl" / "policies" / "ppo_bare_rev2_200k_s0"), "must exceed init_from's step"),
 ])
 def test_bad_init_from_or_std_ceiling_is_named(tmp_path, kw, fragment):

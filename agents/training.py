@@ -307,7 +307,8 @@ def train(config: TrainConfig) -> Path:
     }
     init = None
     if config.init_from is not None:
-        init = Checkpoint(Path(config.init_from), _saved_steps(Path(config.init_from) / "model.zip"))
+        saved = _saved_data(Path(config.init_from) / "model.zip")
+        init = Checkpoint(Path(config.init_from), int(saved.get("num_timesteps", 0)))
         if p.total <= init.steps:
             raise TrainConfigError(f"timesteps ({p.total}) is the total: it must exceed init_from's step count "
                                    f"({init.steps})")
@@ -316,6 +317,9 @@ def train(config: TrainConfig) -> Path:
         if fixed and resume is None:  # before any env starts
             raise TrainConfigError(f"--hyperparams {fixed[0]}: cannot change the network of init_from "
                                    f"{config.init_from}")
+        noise = _leg_noise(config, p, saved.get("action_noise"))
+        p.hp.update(noise)  # recorded as run: the noise key not named is the source's, not the YAML's
+        record["hyperparams"].update({k: repr(v) for k, v in noise.items()})
     if config.action_std_ceiling is not None:
         start, end, steps = config.action_std_ceiling
         record["action_std_ceiling"] = [float(start), float(end), int(steps)]
@@ -339,31 +343,29 @@ def _init_overrides(config: TrainConfig, p: _Plan, first_step: int) -> dict[str,
     (:func:`train` refused the network's, :data:`_FIXED_BY_INIT`). A ``lin_<value>`` schedule falls over this
     run's steps, from the source's step count ``first_step`` to ``p.total``."""
     # n_envs, n_timesteps, normalize and env_wrapper are not model attributes: plan() took them out of p.hp
-    named = [k for k in _named_hyperparams(config) if k in p.hp and k not in _NOISE_KEYS]  # noise: _replace_noise
+    named = [k for k in _named_hyperparams(config) if k in p.hp and k not in _NOISE_KEYS]  # the noise: _leg_noise
     return _model_kwargs({k: p.hp[k] for k in named}, first_step, p.total)
 
 
 _NOISE_KEYS = ("noise_type", "noise_std")
 
 
-def _replace_noise(model: Any, config: TrainConfig, p: _Plan) -> None:
-    """A named ``noise_type`` and/or ``noise_std`` replace the loaded model's action noise; the one not named stays
-    the source's (a leg that lowers the std keeps the source's kind of noise)."""
+def _leg_noise(config: TrainConfig, p: _Plan, source: Any) -> dict[str, Any]:
+    """The action noise of a run started from ``init_from`` when ``--hyperparams`` name ``noise_type`` and/or
+    ``noise_std`` (else ``{}``): the keys named, the other one the source's, where it has noise (a leg that lowers
+    the std keeps the source's kind of noise). plan() saw both keys in ``p.hp`` (from the YAML or named)."""
     named = [k for k in _named_hyperparams(config) if k in _NOISE_KEYS]
     if not named:
-        return
+        return {}
     from stable_baselines3.common.noise import OrnsteinUhlenbeckActionNoise
 
-    old = getattr(model.action_noise, "base_noise", model.action_noise)  # SB3 vectorises it over the envs
-    source = {} if old is None else {
-        "noise_type": "ornstein-uhlenbeck" if isinstance(old, OrnsteinUhlenbeckActionNoise) else "normal",
-        "noise_std": float(old._sigma[0]),
-    }
-    spec = {**source, **{k: p.hp[k] for k in named}}
-    if len(spec) < 2:
-        raise TrainConfigError(f"--hyperparams {named[0]}: the source model has no action noise; name noise_type "
-                               "and noise_std")
-    model.action_noise = action_noise(spec, 1)
+    source = getattr(source, "base_noise", source)  # SB3 vectorises the noise over the envs
+    spec = {k: p.hp[k] for k in _NOISE_KEYS}
+    if source is not None:
+        spec.update({"noise_type": "ornstein-uhlenbeck" if isinstance(source, OrnsteinUhlenbeckActionNoise)
+                     else "normal", "noise_std": float(source._sigma[0])})
+        spec.update({k: p.hp[k] for k in named})
+    return spec
 
 
 def _model_kwargs(hp: dict[str, Any], first_step: int, total: int) -> dict[str, Any]:
@@ -375,15 +377,15 @@ def _model_kwargs(hp: dict[str, Any], first_step: int, total: int) -> dict[str, 
     return kwargs
 
 
-def _saved_steps(model_zip: Path) -> int:
-    """The step count a saved SB3 model was at (its ``data`` entry; the parameters are not loaded)."""
+def _saved_data(model_zip: Path) -> dict[str, Any]:
+    """The ``data`` entry of a saved SB3 model (step count, action noise, ...; the parameters are not loaded)."""
     from stable_baselines3.common.save_util import load_from_zip_file
 
     try:
         data, _, _ = load_from_zip_file(model_zip, load_data=True, device="cpu", print_system_info=False)
     except Exception as exc:  # a zip SB3 cannot read: name the file, not SB3's internals
         raise TrainConfigError(f"init_from: {model_zip} is not a saved SB3 model ({type(exc).__name__})") from None
-    return int(data.get("num_timesteps", 0)) if data else 0
+    return data or {}
 
 
 def _check_same_run(run_dir: Path, record: dict[str, Any]) -> None:
@@ -422,8 +424,8 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
                 venv.training = True
             model = cls.load(start.model, env=venv, device=config.device,
                              **(_init_overrides(config, p, record["init_steps"]) if resume is None else {}))
-            if resume is None:
-                _replace_noise(model, config, p)
+            if resume is None and any(k in _NOISE_KEYS for k in _named_hyperparams(config)):
+                model.action_noise = action_noise({k: p.hp[k] for k in _NOISE_KEYS}, 1)  # train() completed them
             if start.replay_buffer is not None and hasattr(model, "load_replay_buffer"):
                 model.load_replay_buffer(start.replay_buffer)
             if resume is None and model.seed != config.seed:

@@ -115,6 +115,8 @@ def test_td3_trains_with_rl_zoo_action_noise_evaluates_and_a_leg_replaces_the_no
     noise = getattr(noise, "base_noise", noise)
     assert isinstance(noise, OrnsteinUhlenbeckActionNoise) and noise._sigma == pytest.approx([0.05])
     assert not isinstance(noise, NormalActionNoise)
+    recorded = json.loads((second / "config.json").read_text())["hyperparams"]
+    assert recorded["noise_type"] == "'ornstein-uhlenbeck'" and recorded["noise_std"] == "0.05"  # as run, not the YAML's
     summary = evaluate(EvalConfig(controllers=[str(second)], observers=["oracle"], episodes=1, workers=1,
                                   env_kwargs=dict(TINY_ENV), out=tmp_path / "eval", quiet=True))
     assert summary[0]["episodes"] == 1

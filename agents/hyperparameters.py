@@ -22,8 +22,10 @@ LINEAR_PREFIX = "lin_"
 """rl-zoo's spelling of a schedule falling linearly to 0: ``lin_3e-4``."""
 SCHEDULE_KEYS = ("learning_rate", "clip_range")
 """Hyperparameters SB3 accepts as a schedule (a function of the progress remaining)."""
+NOISE_KEYS = ("noise_type", "noise_std")
+"""rl-zoo's action-noise entries of an off-policy learner (not constructor arguments: :func:`action_noise`)."""
 NOISE_TYPES = ("normal", "ornstein-uhlenbeck")
-"""rl-zoo's ``noise_type`` values: the action noise of an off-policy learner (with ``noise_std``)."""
+"""rl-zoo's ``noise_type`` values."""
 
 
 class TrainConfigError(ValueError):
@@ -68,7 +70,7 @@ def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[s
         if key in hp:
             _check_kind(key, hp[key], value, item)
         elif key not in accepted and key not in ("n_envs", "n_timesteps", "normalize", "policy", "env_wrapper",
-                                                 "noise_type", "noise_std"):
+                                                 *NOISE_KEYS):
             raise TrainConfigError(f"--hyperparams {item!r}: {algo} has no hyperparameter {key!r}")
         hp[key] = value
     return hp
@@ -166,7 +168,7 @@ def action_noise(hp: dict[str, Any], n_actions: int) -> Any:
     TrainConfigError
         An unknown ``noise_type``, a ``noise_std`` that is not a finite number >= 0, or one key without the other.
     """
-    kind, std = hp.pop("noise_type", None), hp.pop("noise_std", None)
+    kind, std = (hp.pop(k, None) for k in NOISE_KEYS)
     if kind is None and std is None:
         return None
     if kind is None or std is None:
@@ -223,6 +225,7 @@ __all__ = [
     "HYPERPARAMS_DIR",
     "LINEAR_PREFIX",
     "LinearToZero",
+    "NOISE_KEYS",
     "NOISE_TYPES",
     "RESIDUAL_WRAPPER",
     "SCHEDULE_KEYS",

@@ -30,8 +30,8 @@ from typing import Any
 
 from agents.algos import ALGOS, algo_class
 from agents.checkpoints import Checkpoint, atomic_write, atomic_write_text, clean_partial, latest_checkpoint
-from agents.hyperparameters import (ENV_ID, TrainConfigError, action_noise, evaluate_str, load_hyperparams,
-                                    resolve_schedules, wrappers_from_env_wrapper)
+from agents.hyperparameters import (ENV_ID, NOISE_KEYS, TrainConfigError, action_noise, evaluate_str,
+                                    load_hyperparams, resolve_schedules, wrappers_from_env_wrapper)
 from uuom_gym.registration import env_kwargs_of
 
 EVAL_SEED_OFFSET = 1_000_000
@@ -211,7 +211,9 @@ def plan(config: TrainConfig) -> _Plan:
                                "checkpoints/step_<n> directory)")
     if c.action_std_ceiling is not None:
         start, end, steps = c.action_std_ceiling
-        if c.algo not in ("ppo", "ppo-lag"):
+        from stable_baselines3 import PPO
+
+        if not issubclass(algo_class(c.algo), PPO):  # the ceiling caps PPO's state-independent log_std
             raise TrainConfigError(f"action_std_ceiling: {c.algo.upper()} has no state-independent action std "
                                    "(PPO only)")
         from agents.training_callbacks import ActionStdCeiling
@@ -248,8 +250,11 @@ def plan(config: TrainConfig) -> _Plan:
     for key in _ZOO_ONLY_KEYS:
         hp.pop(key, None)
     resolve_schedules(hp, 0, 1)  # a malformed lin_<value> fails here, before any env starts
-    if action_noise(dict(hp), 1) is not None and c.algo not in ("sac", "td3"):
-        raise TrainConfigError(f"hyperparameters noise_type / noise_std: {c.algo} takes no action noise (sac, td3)")
+    from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+
+    if action_noise(dict(hp), 1) is not None and not issubclass(algo_class(c.algo), OffPolicyAlgorithm):
+        off_policy = ", ".join(a for a in ALGOS if issubclass(algo_class(a), OffPolicyAlgorithm))
+        raise TrainConfigError(f"hyperparameters noise_type / noise_std: {c.algo} takes no action noise ({off_policy})")
     _check_env(c.observer, env_kwargs, shield, residual, margin_schedule)
     run_dir = Path(c.run_dir) if c.run_dir is not None else Path(c.log_dir) / run_dir_name(
         c.algo, c.observer, c.seed, shield, residual, margin_schedule is not None)
@@ -343,29 +348,27 @@ def _init_overrides(config: TrainConfig, p: _Plan, first_step: int) -> dict[str,
     (:func:`train` refused the network's, :data:`_FIXED_BY_INIT`). A ``lin_<value>`` schedule falls over this
     run's steps, from the source's step count ``first_step`` to ``p.total``."""
     # n_envs, n_timesteps, normalize and env_wrapper are not model attributes: plan() took them out of p.hp
-    named = [k for k in _named_hyperparams(config) if k in p.hp and k not in _NOISE_KEYS]  # the noise: _leg_noise
+    named = {k for k in _named_hyperparams(config) if k in p.hp}
+    if named & set(NOISE_KEYS):
+        named |= set(NOISE_KEYS)  # train() completed the one not named from the source (_leg_noise)
     return _model_kwargs({k: p.hp[k] for k in named}, first_step, p.total)
-
-
-_NOISE_KEYS = ("noise_type", "noise_std")
 
 
 def _leg_noise(config: TrainConfig, p: _Plan, source: Any) -> dict[str, Any]:
     """The action noise of a run started from ``init_from`` when ``--hyperparams`` name ``noise_type`` and/or
-    ``noise_std`` (else ``{}``): the keys named, the other one the source's, where it has noise (a leg that lowers
-    the std keeps the source's kind of noise). plan() saw both keys in ``p.hp`` (from the YAML or named)."""
-    named = [k for k in _named_hyperparams(config) if k in _NOISE_KEYS]
+    ``noise_std`` (else ``{}``): the keys named, the other one the source's where it has noise (a leg that lowers
+    the std keeps the source's kind of noise), else the YAML's. plan() saw both keys in ``p.hp``."""
+    named = [k for k in _named_hyperparams(config) if k in NOISE_KEYS]
     if not named:
         return {}
     from stable_baselines3.common.noise import OrnsteinUhlenbeckActionNoise
 
     source = getattr(source, "base_noise", source)  # SB3 vectorises the noise over the envs
-    spec = {k: p.hp[k] for k in _NOISE_KEYS}
-    if source is not None:
-        spec.update({"noise_type": "ornstein-uhlenbeck" if isinstance(source, OrnsteinUhlenbeckActionNoise)
-                     else "normal", "noise_std": float(source._sigma[0])})
-        spec.update({k: p.hp[k] for k in named})
-    return spec
+    kept = {} if source is None else {
+        "noise_type": "ornstein-uhlenbeck" if isinstance(source, OrnsteinUhlenbeckActionNoise) else "normal",
+        "noise_std": float(source._sigma[0]),
+    }
+    return {k: p.hp[k] if k in named or k not in kept else kept[k] for k in NOISE_KEYS}
 
 
 def _model_kwargs(hp: dict[str, Any], first_step: int, total: int) -> dict[str, Any]:
@@ -424,8 +427,6 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
                 venv.training = True
             model = cls.load(start.model, env=venv, device=config.device,
                              **(_init_overrides(config, p, record["init_steps"]) if resume is None else {}))
-            if resume is None and any(k in _NOISE_KEYS for k in _named_hyperparams(config)):
-                model.action_noise = action_noise({k: p.hp[k] for k in _NOISE_KEYS}, 1)  # train() completed them
             if start.replay_buffer is not None and hasattr(model, "load_replay_buffer"):
                 model.load_replay_buffer(start.replay_buffer)
             if resume is None and model.seed != config.seed:

@@ -98,10 +98,24 @@ def split_options(base: str) -> tuple[str, dict[str, float | bool]]:
 
 
 def controller_label(spec: str) -> str:
-    """Short label for tables: run directories by their name."""
+    """Short label for tables: run directories by their name, a checkpoint folder as ``<run>_step_<n>``."""
     base, shield = split_shield(spec)
-    label = Path(base).name if ("/" in base or Path(base).is_dir()) else base
+    if "/" in base or Path(base).is_dir():
+        path = Path(base)
+        label = f"{path.parent.parent.name}_{path.name}" if path.parent.name == "checkpoints" else path.name
+    else:
+        label = base
     return label + ("+shield" if shield else "")
+
+
+def run_config_path(model_dir: Path) -> Path:
+    """The ``config.json`` that describes a model folder: its own, or for a checkpoint folder
+    (``<run>/checkpoints/step_<n>``, which has none) its run's."""
+    model_dir = Path(model_dir)
+    own = model_dir / "config.json"
+    if not own.is_file() and model_dir.parent.name == "checkpoints":
+        return model_dir.parent.parent / "config.json"
+    return own
 
 
 class ModelPolicy:
@@ -110,7 +124,8 @@ class ModelPolicy:
     Parameters
     ----------
     run_dir : Path
-        A training run directory (``model.zip``, optional ``vecnormalize.pkl`` and ``config.json``).
+        A training run directory (``model.zip``, optional ``vecnormalize.pkl`` and ``config.json``), or one of its
+        checkpoint folders (``checkpoints/step_<n>``: the run's ``config.json`` describes it).
     """
 
     def __init__(self, run_dir: Path) -> None:
@@ -122,7 +137,8 @@ class ModelPolicy:
 
         torch.set_num_threads(1)  # one episode per process: threads would only fight over the cores
 
-        cfg = json.loads((run_dir / "config.json").read_text()) if (run_dir / "config.json").exists() else {}
+        cfg_path = run_config_path(run_dir)
+        cfg = json.loads(cfg_path.read_text()) if cfg_path.is_file() else {}
         self.shield = bool(cfg.get("shield", False))
         self.residual = float(cfg.get("residual", 0.0))
         span = cfg.get("margin_schedule")
@@ -166,8 +182,9 @@ def env_shift(trained: dict[str, Any], evaluated: dict[str, Any]) -> list[str]:
 
 
 def trained_env_kwargs(run_dir: Path) -> dict[str, Any]:
-    """The env configuration a run directory's policy was trained with (``config.json``; {} when it has none)."""
-    path = Path(run_dir) / "config.json"
+    """The env configuration a run directory's (or checkpoint folder's) policy was trained with (``config.json``;
+    {} when it has none)."""
+    path = run_config_path(run_dir)
     return dict(json.loads(path.read_text()).get("env_kwargs") or {}) if path.is_file() else {}
 
 
@@ -496,6 +513,7 @@ __all__ = [
     "markdown_table",
     "read_episodes",
     "run_episode",
+    "run_config_path",
     "run_tasks",
     "split_options",
     "split_shield",

@@ -30,6 +30,8 @@ if str(ROOT) not in sys.path:
 def _paths(target: Path) -> tuple[Path, Path]:
     if target.is_dir():
         return target / "model.zip", target / "vecnormalize.pkl"
+    if target.name == "model.zip":  # a run's or a checkpoint folder's model: its statistics lie beside it
+        return target, target.with_name("vecnormalize.pkl")
     return target, target.with_name(target.name.replace("model_", "model_vecnormalize_")).with_suffix(".pkl")
 
 
@@ -39,6 +41,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=[100_000, 100_001, 100_002])
     ap.add_argument("--observer", default="dffrls-aekf")
     ap.add_argument("--max-steps", type=int, default=3000)
+    ap.add_argument("--no-normalize", action="store_true",
+                    help="run a policy trained without VecNormalize (otherwise its statistics must be found)")
     ap.add_argument("--env-kwargs", type=json.loads, default={},
                     help='JSON env config the policy was trained with, e.g. \'{"action_mode": "speed_target"}\'')
     args = ap.parse_args(argv)
@@ -54,7 +58,10 @@ def main(argv: list[str] | None = None) -> int:
         raise SystemExit(f"no model at {model_path}")
     model = PPO.load(model_path, device="cpu")
     vn = None
-    if vn_path.exists():
+    if not vn_path.exists() and not args.no_normalize:
+        # Without its observation statistics a policy sees garbage and "fails" for no reason of its own.
+        raise SystemExit(f"no VecNormalize statistics at {vn_path}; pass --no-normalize if the policy had none")
+    if vn_path.exists() and not args.no_normalize:
         with open(vn_path, "rb") as fh:
             vn = pickle.load(fh)
         vn.training = False

@@ -8,6 +8,17 @@ from typing import Any, Mapping
 import numpy as np
 
 
+ACTION_MODES: tuple[str, ...] = ("command", "speed_target", "acceleration")
+"""Values of the config key ``action_mode``: what the action in ``[-1, 1]`` asks the plant for."""
+
+
+def accel_demand_mps2(action: float, span: tuple[float, float]) -> float:
+    """``action_mode="acceleration"``: the acceleration an action asks for, ``a * hi`` for ``a >= 0``, ``-a * lo``
+    below, so that ``a = 0`` asks for none whatever the span."""
+    a = min(max(float(action), -1.0), 1.0)
+    return a * float(span[1]) if a >= 0.0 else -a * float(span[0])
+
+
 class InvalidActionError(ValueError):
     """An action that is not one finite real number (a Python/NumPy real scalar or a real array of shape (1,))."""
 
@@ -45,4 +56,4 @@ def check_action(action: Any) -> float:
     return min(max(x, -1.0), 1.0)
 
 
-__all__ = ["InvalidActionError", "check_action"]
+__all__ = ["ACTION_MODES", "InvalidActionError", "accel_demand_mps2", "check_action"]

@@ -11,6 +11,7 @@ import copy
 import math
 from typing import Any, Mapping
 
+from uuom_gym.envs.actions import ACTION_MODES
 from uuom_gym.sim.track import SCENARIO_NAMES as SCENARIOS
 """The paper's fixed runs (spec §3): the track, the load and the nominal conditions are fixed."""
 
@@ -53,6 +54,7 @@ def default_config() -> dict[str, Any]:
         "speed_target_cap": "cautious",
         "speed_target_range": (0.0, 1.0),
         "speed_tracker": {},
+        "accel_demand_mps2": (-0.5, 0.5),
         # --- randomisation per reset(seed) ------------------------------------------------------------------
         "load_kg": None,
         "load_fraction_range": (0.0, 1.0),
@@ -129,9 +131,11 @@ CONFIG_DOCS: dict[str, str] = {
     "mark for this long (s) without arriving (standing, or dithering back and forth); None disables it. Short, "
     "because PPO's gamma = 0.995 discounts a penalty 60 s (600 steps) ahead to 5 %: with 60 s it did not stop "
     "the policy from learning to hold the brake at the start (docs/rl.md).",
-    "action_mode": "'command' (default: the action is the traction/brake fraction) or 'speed_target' (the action "
+    "action_mode": "'command' (default: the action is the traction/brake fraction), 'speed_target' (the action "
     "a is a target speed (a + 1) / 2 x the cautious limit, observation 13, tracked by a PI controller inside the "
-    "env, uuom_gym.envs.speed_target): its zero drives gently instead of coasting (docs/rl.md).",
+    "env, uuom_gym.envs.speed_target): its zero drives gently instead of coasting (docs/rl.md), or 'acceleration' "
+    "(the action is an acceleration demand, see accel_demand_mps2, turned into a force with the estimated mass and "
+    "slope, uuom_gym.envs.force_demand: no dead zone below the breakaway force; docs/rl.md §32).",
     "speed_target_cap": "action_mode='speed_target' only: what a = +1 asks for. 'cautious' (default, rev. 3): the "
     "cautious limit; 'station': min(cautious limit, braking envelope to the station), the envelope being "
     "sqrt(2 x 0.3 m/s^2 x (odometry distance to go - 0.5 m)), so every action a > -1 stops at the station "
@@ -143,6 +147,8 @@ CONFIG_DOCS: dict[str, str] = {
     "(0.7, 1.2), makes the policy's zero drive near the cautious limit and lets it learn where to go above it (rev. 5).",
     "speed_tracker": "action_mode='speed_target' only: overrides of the PI tracker's gains, keys gain_per_s, "
     "integral_gain_per_s2, integral_clamp_m (uuom_gym.envs.speed_target.SpeedTracker; {} keeps its defaults).",
+    "accel_demand_mps2": "action_mode='acceleration' only: (lo, hi) accelerations (m/s^2) that a = -1 and a = +1 "
+    "ask for, lo < 0 < hi, piecewise linear with a = 0 asking for 0 (hold the speed; at rest, hold the brake).",
     "load_kg": "Fixed load (kg) instead of a random one; None draws it from load_fraction_range.",
     "load_fraction_range": "(low, high) load as a fraction of the rated load, drawn uniformly.",
     "running_resistance_range": "(low, high) true running-resistance coefficient mu, drawn uniformly.",
@@ -315,9 +321,9 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
     if cfg["idle_limit_s"] is not None:
         _check_number(cfg, "idle_limit_s", 0.0, 1e6, open_lo=True)
     _check_number(cfg, "shaping_gamma", 0.0, 1.0)
-    if cfg["action_mode"] not in ("command", "speed_target"):
+    if cfg["action_mode"] not in ACTION_MODES:
         raise ConfigError(
-            f"config key 'action_mode' must be 'command' or 'speed_target', got {cfg['action_mode']!r}"
+            f"config key 'action_mode' must be one of {', '.join(map(repr, ACTION_MODES))}, got {cfg['action_mode']!r}"
         )
     if cfg["speed_target_cap"] not in ("cautious", "station"):
         raise ConfigError(
@@ -325,6 +331,9 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
         )
     _check_range(cfg, "speed_target_range", 0.0, 2.0)
     _check_tracker(cfg)
+    _check_range(cfg, "accel_demand_mps2", -5.0, 5.0)
+    if not cfg["accel_demand_mps2"][0] < 0.0 < cfg["accel_demand_mps2"][1]:
+        raise ConfigError(f"config key 'accel_demand_mps2' must be (lo, hi) with lo < 0 < hi, got {cfg['accel_demand_mps2']!r}")
     if cfg["load_kg"] is not None:
         _check_number(cfg, "load_kg", 0.0, 1e6)
     _check_range(cfg, "load_fraction_range", 0.0, 1.2)

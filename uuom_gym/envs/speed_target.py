@@ -23,8 +23,9 @@ from uuom_core.vehicle import VehicleParams
 
 G_MPS2 = 9.80665
 
-ACTION_MODES: tuple[str, ...] = ("command", "speed_target")
-"""Values of the config key ``action_mode``."""
+RAMP_WINDOW_MPS = 0.3
+"""``action_mode="acceleration"``: the ramped target stays within this much of the measured speed (anti-windup: a
+train that cannot follow the demand does not run up a hidden backlog)."""
 
 ENVELOPE_DECEL_MPS2 = 0.3
 """``speed_target_cap="station"``: deceleration of the braking envelope to the station (the shaping's stop curve,
@@ -39,6 +40,14 @@ def station_envelope_mps(distance_to_go_m: float) -> float:
     """``sqrt(2 a (d - d0)+)``: the highest speed from which the train still stops ``d0`` before the station."""
     d = max(float(distance_to_go_m) - ENVELOPE_STOP_OFFSET_M, 0.0)
     return math.sqrt(2.0 * ENVELOPE_DECEL_MPS2 * d)
+
+
+def ramp_target_mps(target_mps: float, accel_mps2: float, step_s: float, speed_mps: float) -> float:
+    """``action_mode="acceleration"``: the target speed moved by ``accel * step``, kept within
+    :data:`RAMP_WINDOW_MPS` of the measured speed and at or above 0."""
+    lo = max(float(speed_mps) - RAMP_WINDOW_MPS, 0.0)
+    hi = max(float(speed_mps) + RAMP_WINDOW_MPS, 0.0)
+    return min(max(float(target_mps) + float(accel_mps2) * float(step_s), lo), hi)
 
 
 def target_speed_mps(action: float, cautious_limit_mps: float, span: tuple[float, float] = (0.0, 1.0)) -> float:
@@ -80,11 +89,12 @@ class SpeedTracker:
         """Forget the integral (each episode starts at rest)."""
         self.integral_m = 0.0
 
-    def command(self, target_mps: float, speed_mps: float, mass_kg: float, slope_rad: float) -> float:
+    def command(self, target_mps: float, speed_mps: float, mass_kg: float, slope_rad: float,
+                accel_mps2: float = 0.0) -> float:
         """Plant command in ``[-1, 1]`` that drives the measured speed toward ``target_mps``.
 
         ``mass_kg`` and ``slope_rad`` are the estimates used for the feed-forward (mass clamped to the
-        vehicle's empty..max range). Positive force maps to a fraction of the traction available at this
+        vehicle's empty..max range); ``accel_mps2`` is the target's own rate of change, fed forward as a force. Positive force maps to a fraction of the traction available at this
         speed (torque and power limits), negative to a fraction of the service brake.
         """
         v = self.vehicle
@@ -94,7 +104,7 @@ class SpeedTracker:
         self.integral_m = min(max(self.integral_m + err * self.step_s, -self.integral_clamp_m), self.integral_clamp_m)
         inertia = m + v.rotating_mass_kg
         force = m * G_MPS2 * (math.sin(th) + v.running_resistance * math.cos(th)) + inertia * (
-            self.gain_per_s * err + self.integral_gain_per_s2 * self.integral_m
+            accel_mps2 + self.gain_per_s * err + self.integral_gain_per_s2 * self.integral_m
         )
         if target_mps <= 0.0 and speed_mps <= 0.05:
             # Stop requested and (nearly) reached: hold with the brake instead of creeping on the integral.
@@ -107,4 +117,7 @@ class SpeedTracker:
         return min(max(cmd, -1.0), 1.0)
 
 
-__all__ = ["ACTION_MODES", "ENVELOPE_DECEL_MPS2", "ENVELOPE_STOP_OFFSET_M", "SpeedTracker", "station_envelope_mps", "target_speed_mps"]
+__all__ = [
+    "ENVELOPE_DECEL_MPS2", "ENVELOPE_STOP_OFFSET_M", "RAMP_WINDOW_MPS", "SpeedTracker", "ramp_target_mps",
+    "station_envelope_mps", "target_speed_mps",
+]

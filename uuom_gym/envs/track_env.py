@@ -13,7 +13,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from uuom_gym.envs.actions import InvalidActionError, check_action
+from uuom_gym.envs.actions import InvalidActionError, accel_demand_mps2, check_action
 from uuom_gym.envs.config import CONFIG_DOCS, REWARD_TERMS, ConfigError, default_config, make_config
 from uuom_gym.envs.observation import (
     OBS_NAMES,
@@ -27,7 +27,7 @@ from uuom_gym.envs.observation import (
 from uuom_gym.envs.reward import reward_terms, traction_energy_j
 from uuom_gym.envs.reward_shaping import potential, shaping_reward
 from uuom_gym.envs.safety import SafetyMonitor, SafetyParams
-from uuom_gym.envs.speed_target import SpeedTracker, station_envelope_mps, target_speed_mps
+from uuom_gym.envs.speed_target import SpeedTracker, ramp_target_mps, station_envelope_mps, target_speed_mps
 from uuom_core.limits import speed_limit_mps
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
@@ -144,7 +144,8 @@ class UUOMTrackEnv(gym.Env):
     | physics_hz        | 200             | plant / sensor / estimator rate                           |
     | track_length_m    | (100, 300)      | random track length range                                 |
     | allow_infeasible  | False           | allow grades the load cannot climb                        |
-    | action_mode       | "command"       | "command" (traction/brake fraction) or "speed_target"     |
+    | action_mode       | "command"       | "command" (traction/brake fraction), "speed_target" or    |
+    |                   |                 | "acceleration"                                            |
 
     ``action_mode="speed_target"`` (opt-in) reads the action as a target speed, ``(a + 1) / 2`` times the cautious
     limit (observation 13), tracked by a PI controller with a grade feed-forward from the estimates inside the env
@@ -154,6 +155,11 @@ class UUOMTrackEnv(gym.Env):
     envelope to the station)``, the envelope ``sqrt(2 x 0.3 m/s^2 x (odometry distance to go - 0.5 m))``: every
     action ``a > -1`` then stops at the station (a meta-action over a low-level tracker; the env gives the policy
     the station envelope). ``speed_tracker`` overrides the tracker's gains (e.g. ``{"integral_clamp_m": 2.0}``).
+    ``action_mode="acceleration"`` (opt-in) reads the action as an acceleration demand (``accel_demand_mps2``, default
+    -0.5..0.5 m/s^2, ``a = 0`` asking for none): it ramps the same tracker's target, which stays within 0.3 m/s of
+    the measured speed, and is fed forward as a force. ``a = 0`` holds the speed (at rest: the brake), any ``a > 0``
+    starts the train whatever its mass; no cap, no shield: the policy times the start, the cruise and the stop.
+    ``info["accel_demand_mps2"]`` is the demand, ``info["target_speed_mps"]`` the ramped target.
 
     ## Version History
 
@@ -213,6 +219,9 @@ class UUOMTrackEnv(gym.Env):
       computed with (``observers.PLANT_BLEND_OPTIONS``), so episodes are identical.
     * v0 (rev. 15, no id change, behaviour unchanged): a ninth reward term, ``caution`` (speed above the cautious
       limit, per second), weight 0 by default: rewards are unchanged, ``info["rewards"]`` has one more key.
+    * v0 (rev. 16, no id change, default behaviour unchanged): opt-in config ``action_mode="acceleration"`` with
+      ``accel_demand_mps2``. Reason (docs/rl.md §32): on the traction command a small mean command does not move a
+      train at rest (the force is below breakaway), so the policy's mean never learnt to start or stop it (§27-§31).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
@@ -234,11 +243,12 @@ class UUOMTrackEnv(gym.Env):
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
         self._tracker = (
             SpeedTracker(self.vehicle, self.step_s, **cfg["speed_tracker"])
-            if cfg["action_mode"] == "speed_target"
+            if cfg["action_mode"] in ("speed_target", "acceleration")
             else None
         )
         self._cautious_mps = 0.0
         self._target_mps: float | None = None
+        self._accel_demand = 0.0
         self.observation_space = observation_space()
         self.observer = make_observer(cfg["observer"], self.vehicle, cfg["observer_options"],
                                       fault_free_sensors=cfg["sensor_faults"] is None)
@@ -289,6 +299,7 @@ class UUOMTrackEnv(gym.Env):
         self.true_slope_rad = float(self.track.slope_at(self.position_m))
         self.last_command = 0.0
         self._target_mps = None
+        self._accel_demand = 0.0
         if self._tracker is not None:
             self._tracker.reset()
         self._furthest_m = self.position_m
@@ -325,7 +336,9 @@ class UUOMTrackEnv(gym.Env):
 
         command = check_action(action)
         cfg = self.config
-        if self._tracker is not None:
+        if cfg["action_mode"] == "acceleration":
+            command = self._accelerate(command)
+        elif self._tracker is not None:
             command = self._track(command)
         s_start = self.position_m
         log = self.plant.advance(command, self.ticks_per_step)
@@ -426,13 +439,30 @@ class UUOMTrackEnv(gym.Env):
         slope = min(max(th - 2.0 * ts, -1.2), 1.2)
         return speed_limit_mps(self.vehicle, mass, slope)
 
-    def _track(self, action: float) -> float:
-        """``action_mode="speed_target"``: the plant command that tracks the target speed of ``action``."""
+    def _feedforward_estimate(self) -> tuple[float, float]:
+        """Mass and slope for the env-side force demands: the estimate, the model-free grade where they differ."""
         m, th, _, _ = self._estimate
         mf = self.obs_builder.grade_mf_rad
         if mf is not None and abs(mf - th) > FEEDFORWARD_CROSS_CHECK_RAD:
             # The estimators' slope can be confidently wrong by 5-12 deg while braking (docs/agents.md).
             th = mf
+        return m, th
+
+    def _accelerate(self, action: float) -> float:
+        """``action_mode="acceleration"``: the plant command for the acceleration demand of ``action``.
+
+        The demand ramps the tracker's target speed (the tracker's loop, not the estimate alone, gets a train
+        whose mass is still unknown past its breakaway force) and is fed forward as a force.
+        """
+        m, th = self._feedforward_estimate()
+        speed = self.obs_builder.speed_mps
+        self._accel_demand = accel_demand_mps2(action, self.config["accel_demand_mps2"])
+        self._target_mps = ramp_target_mps(self._target_mps or 0.0, self._accel_demand, self.step_s, speed)
+        return self._tracker.command(self._target_mps, speed, m, th, self._accel_demand)
+
+    def _track(self, action: float) -> float:
+        """``action_mode="speed_target"``: the plant command that tracks the target speed of ``action``."""
+        m, th = self._feedforward_estimate()
         span = self.config["speed_target_range"]
         cap = self._cautious_mps
         if self.config["speed_target_cap"] == "station":
@@ -493,6 +523,7 @@ class UUOMTrackEnv(gym.Env):
             "max_climbable_grade_rad": self.safety.climbable_rad,
             "observer": self.observer.name,
             **({} if self._tracker is None else {"target_speed_mps": self._target_mps}),
+            **({"accel_demand_mps2": self._accel_demand} if self.config["action_mode"] == "acceleration" else {}),
         }
 
     # ------------------------------------------------------------------------------------------------------------

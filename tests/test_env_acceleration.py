@@ -88,3 +88,26 @@ def test_default_mode_has_no_demand_in_info():
     _, info = env.reset(seed=0)
     assert "accel_demand_mps2" not in info and "target_speed_mps" not in info
     env.close()
+
+
+def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode():
+    import json
+    from pathlib import Path
+
+    from agents.evaluation import Task, read_episodes, run_episode
+    from agents.float_path import float_path_fingerprint
+
+    root = Path(__file__).resolve().parents[1]
+    name = "ppo_bare_accel_mix_s1_selected"
+    rows = read_episodes(root / "results" / "rl" / "acceleration_action" / "eval" / "pooled_5seeds" / "episodes.csv")
+    want = [r for r in rows if r.get("training_run") == name and r["seed"] == 100_000]
+    assert len(want) == 1
+    want = want[0]
+    if want["float_path"] != float_path_fingerprint():
+        pytest.skip(f"the committed row was written with float32 path {want['float_path']}; this machine has "
+                    f"{float_path_fingerprint()}: a policy's episode is reproducible only on the same path")
+    # Judged on the default tracks: only the action mode of its training configuration, not its 50-300 m tracks.
+    got = run_episode(Task(str(root / "results" / "rl" / "policies" / name), "dffrls-aekf", 100_000,
+                           json.dumps({"action_mode": "acceleration"})))
+    assert (got["termination"], got["steps"]) == (want["termination"], want["steps"])
+    assert got["trip_time_s"] == pytest.approx(want["trip_time_s"], abs=1e-9)

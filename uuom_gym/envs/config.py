@@ -134,8 +134,9 @@ CONFIG_DOCS: dict[str, str] = {
     "action_mode": "'command' (default: the action is the traction/brake fraction), 'speed_target' (the action "
     "a is a target speed (a + 1) / 2 x the cautious limit, observation 13, tracked by a PI controller inside the "
     "env, uuom_gym.envs.speed_target): its zero drives gently instead of coasting (docs/rl.md), or 'acceleration' "
-    "(the action is an acceleration demand, see accel_demand_mps2, turned into a force with the estimated mass and "
-    "slope, uuom_gym.envs.force_demand: no dead zone below the breakaway force; docs/rl.md §32).",
+    "(the action is an acceleration demand, see accel_demand_mps2, that ramps the same tracker's target and is fed "
+    "forward with the estimated mass and slope, uuom_gym.envs.speed_target.ramp_target_mps: no dead zone below the "
+    "breakaway force; docs/rl.md §32).",
     "speed_target_cap": "action_mode='speed_target' only: what a = +1 asks for. 'cautious' (default, rev. 3): the "
     "cautious limit; 'station': min(cautious limit, braking envelope to the station), the envelope being "
     "sqrt(2 x 0.3 m/s^2 x (odometry distance to go - 0.5 m)), so every action a > -1 stops at the station "
@@ -145,7 +146,7 @@ CONFIG_DOCS: dict[str, str] = {
     "and a = +1 ask for, linear between (default (0, 1): a = -1 stops). With speed_target_cap='station' the braking "
     "envelope is divided by max(hi, 1) first, so no action asks for more than the envelope. A span around 1, e.g. "
     "(0.7, 1.2), makes the policy's zero drive near the cautious limit and lets it learn where to go above it (rev. 5).",
-    "speed_tracker": "action_mode='speed_target' only: overrides of the PI tracker's gains, keys gain_per_s, "
+    "speed_tracker": "action_mode='speed_target' or 'acceleration' only: overrides of the PI tracker's gains, keys gain_per_s, "
     "integral_gain_per_s2, integral_clamp_m (uuom_gym.envs.speed_target.SpeedTracker; {} keeps its defaults).",
     "accel_demand_mps2": "action_mode='acceleration' only: (lo, hi) accelerations (m/s^2) that a = -1 and a = +1 "
     "ask for, lo < 0 < hi, piecewise linear with a = 0 asking for 0 (hold the speed; at rest, hold the brake).",
@@ -333,7 +334,9 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
     _check_tracker(cfg)
     _check_range(cfg, "accel_demand_mps2", -5.0, 5.0)
     if not cfg["accel_demand_mps2"][0] < 0.0 < cfg["accel_demand_mps2"][1]:
-        raise ConfigError(f"config key 'accel_demand_mps2' must be (lo, hi) with lo < 0 < hi, got {cfg['accel_demand_mps2']!r}")
+        raise ConfigError(
+            f"config key 'accel_demand_mps2' must be (lo, hi) with lo < 0 < hi, got {cfg['accel_demand_mps2']!r}"
+        )
     if cfg["load_kg"] is not None:
         _check_number(cfg, "load_kg", 0.0, 1e6)
     _check_range(cfg, "load_fraction_range", 0.0, 1.2)

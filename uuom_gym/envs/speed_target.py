@@ -94,8 +94,9 @@ class SpeedTracker:
         """Plant command in ``[-1, 1]`` that drives the measured speed toward ``target_mps``.
 
         ``mass_kg`` and ``slope_rad`` are the estimates used for the feed-forward (mass clamped to the
-        vehicle's empty..max range); ``accel_mps2`` is the target's own rate of change, fed forward as a force. Positive force maps to a fraction of the traction available at this
-        speed (torque and power limits), negative to a fraction of the service brake.
+        vehicle's empty..max range); ``accel_mps2`` is the target's own rate of change, fed forward as a force.
+        Positive force maps to a fraction of the traction available at this speed (torque and power limits),
+        negative to a fraction of the service brake.
         """
         v = self.vehicle
         m = min(max(float(mass_kg), v.empty_mass_kg), v.max_mass_kg)

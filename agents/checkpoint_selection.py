@@ -12,19 +12,17 @@ mean trip time of the arrivals; then the later checkpoint.
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 from typing import Any
+
+from agents.checkpoints import STEP_DIR_RE, list_checkpoints
 
 TRIP_WEIGHT = 10.0
 """One overspeed trip counts as this many missed arrivals (issue 11's floor allows 1 trip in 100 but 5 misses)."""
 
-_STEP = re.compile(r"^step_(\d+)$")
-
-
 def step_of(model_dir: Path) -> int | None:
     """The step count of a ``checkpoints/step_<n>`` folder; ``None`` for a run's final model."""
-    m = _STEP.match(Path(model_dir).name)
+    m = STEP_DIR_RE.fullmatch(Path(model_dir).name)
     return int(m.group(1)) if m and Path(model_dir).parent.name == "checkpoints" else None
 
 
@@ -32,12 +30,8 @@ def candidates(run_dir: Path, min_step: int = 0, every: int = 0) -> list[Path]:
     """The run's checkpoint folders with ``step >= min_step`` (and a multiple of ``every`` if > 0), then its final
     model. Raises ``FileNotFoundError`` when there is none."""
     run_dir = Path(run_dir)
-    found = []
-    ck = run_dir / "checkpoints"
-    for d in sorted(ck.iterdir()) if ck.is_dir() else []:
-        n = step_of(d)
-        if n is not None and (d / "model.zip").is_file() and n >= min_step and (every <= 0 or n % every == 0):
-            found.append(d)
+    found = [c.path for c in list_checkpoints(run_dir / "checkpoints")
+             if c.steps >= min_step and (every <= 0 or c.steps % every == 0)]
     if (run_dir / "model.zip").is_file():
         found.append(run_dir)
     if not found:

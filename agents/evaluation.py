@@ -150,6 +150,10 @@ class ModelPolicy:
             raise FileNotFoundError(f"{run_dir}: no model.zip (train it with uuom-train first)")
         self.model = algo_class(algo).load(path, device="cpu")
         self.vecnorm = None
+        if not vn_path.exists() and (cfg.get("normalize") or {}).get("norm_obs"):
+            # Run without the statistics it was trained with, a policy sees garbage and "fails" for no fault of its own.
+            raise FileNotFoundError(f"{run_dir}: no vecnormalize.pkl, but {cfg_path} says it was trained with "
+                                    f"normalized observations")
         if vn_path.exists():
             with open(vn_path, "rb") as fh:
                 self.vecnorm = pickle.load(fh)

@@ -89,3 +89,14 @@ def test_the_script_validates_off_the_held_out_tracks_and_copies_the_choice(tmp_
     bad = subprocess.run([*cmd[:3], "--seed-base", "99990", "--episodes", "20", "--out", str(tmp_path / "x")],
                          capture_output=True, text=True, cwd=ROOT)
     assert bad.returncode == 2 and "overlaps the held-out tracks" in bad.stderr
+
+
+def test_a_policy_trained_on_normalized_observations_is_not_run_without_its_statistics(tmp_path):
+    from agents.evaluation import ModelPolicy
+
+    for name in ("model.zip", "config.json"):
+        shutil.copy(SHIPPED / name, tmp_path / name)
+    with pytest.raises(FileNotFoundError, match="no vecnormalize.pkl"):
+        ModelPolicy(tmp_path)
+    shutil.copy(SHIPPED / "vecnormalize.pkl", tmp_path / "vecnormalize.pkl")
+    assert ModelPolicy(tmp_path).vecnorm is not None

@@ -26,3 +26,14 @@ def test_a_model_without_its_statistics_is_refused(tmp_path):
     ok = subprocess.run([*SCRIPT, str(tmp_path / "model.zip"), "--no-normalize", "--seeds", "100000",
                          "--max-steps", "20"], capture_output=True, text=True, cwd=ROOT)
     assert ok.returncode == 0 and "seed 100000:" in ok.stdout
+
+
+def test_the_env_is_built_as_the_policy_was_trained_and_the_trace_shows_the_last_steps():
+    # trained on 50-300 m tracks with the acceleration action: seed 100000 draws a 198 m track there (218 m on the
+    # default tracks, which is what the script ran before it read the run's configuration)
+    accel = ROOT / "results" / "rl" / "policies" / "ppo_bare_accel_mix_s1_selected"
+    out = subprocess.run([*SCRIPT, str(accel), "--seeds", "100000", "--max-steps", "30", "--trace", "3"],
+                         capture_output=True, text=True, check=True, cwd=ROOT).stdout.splitlines()
+    assert out[0].startswith("seed 100000: running at 3 s") and "/ 198 m" in out[0]
+    assert out[1].split() == ["t_s", "position_m", "to_go_m", "speed_mps", "true_limit_mps", "action", "ending"]
+    assert [float(r.split()[0]) for r in out[2:]] == [2.8, 2.9, 3.0]

@@ -90,7 +90,11 @@ def test_default_mode_has_no_demand_in_info():
     env.close()
 
 
-def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode():
+@pytest.mark.parametrize("name, episodes", [
+    ("ppo_bare_accel_mix_s1_selected", "acceleration_action/eval/pooled_5seeds"),
+    ("sac_bare_accel_mix_s0_selected", "sac_acceleration/eval/pooled_4seeds"),
+])
+def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode(name, episodes):
     import json
     from pathlib import Path
 
@@ -98,8 +102,7 @@ def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode
     from agents.float_path import float_path_fingerprint
 
     root = Path(__file__).resolve().parents[1]
-    name = "ppo_bare_accel_mix_s1_selected"
-    rows = read_episodes(root / "results" / "rl" / "acceleration_action" / "eval" / "pooled_5seeds" / "episodes.csv")
+    rows = read_episodes(root / "results" / "rl" / episodes / "episodes.csv")
     want = [r for r in rows if r.get("training_run") == name and r["seed"] == 100_000]
     assert len(want) == 1
     want = want[0]

@@ -12,7 +12,8 @@ either; it is loaded as ``uuom-evaluate`` loads it (:class:`agents.evaluation.Mo
 observation statistics from the run). The env is built with the configuration the policy was trained with (the
 run's ``config.json``), updated by ``--env-kwargs``. Prints per seed: the ending (or ``running`` after
 ``--max-steps``), time, distance covered, load, mean/max speed, mean true limit, mean deterministic command;
-``--trace N`` also prints the episode's last N steps. Used in docs/rl.md to see what a policy's *mean* action does
+``--trace N`` also prints the episode's last N steps; ``--sample SEED`` runs the policy on sampled actions
+instead of its mean (what its training episodes did). Used in docs/rl.md to see what a policy's *mean* action does
 (the training curves show the noisy policy).
 """
 
@@ -43,8 +44,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--env-kwargs", type=json.loads, default={},
                     help="JSON env config on top of the one the policy was trained with")
     ap.add_argument("--trace", type=int, default=0, metavar="N", help="print each episode's last N steps")
+    ap.add_argument("--sample", type=int, default=None, metavar="SEED",
+                    help="sample the actions from the policy's distribution (torch seeded once with SEED) instead of "
+                         "taking its mean")
     args = ap.parse_args(argv)
     import gymnasium as gym
+    import torch
 
     import uuom_gym  # noqa: F401
     from agents.evaluation import ModelPolicy, trained_env_kwargs
@@ -63,12 +68,19 @@ def main(argv: list[str] | None = None) -> int:
     if args.no_normalize:
         policy.vecnorm = None
     env_kwargs = {**trained_env_kwargs(run_dir), **args.env_kwargs}
+    if args.sample is not None:
+        torch.manual_seed(args.sample)
+    endings: dict[str, int] = {}
     for seed in args.seeds:
         env = gym.make("UUOM-Track-v0", observer=args.observer, **env_kwargs)
         obs, info = env.reset(seed=seed)
         speed, cmd, lim, rows = [], [], [], []
         for _ in range(args.max_steps):
-            a = policy.act(obs, info)
+            if args.sample is None:
+                a = policy.act(obs, info)
+            else:
+                o = policy.vecnorm.normalize_obs(obs) if policy.vecnorm is not None else obs
+                a = np.asarray(policy.model.predict(o, deterministic=False)[0], dtype=np.float32).reshape(1)
             obs, _, term, trunc, info = env.step(a)
             speed.append(info["speed_mps"])
             cmd.append(float(np.clip(a[0], -1.0, 1.0)))
@@ -80,6 +92,8 @@ def main(argv: list[str] | None = None) -> int:
             if term or trunc:
                 break
         env.close()
+        ending = info["termination"] or "running"
+        endings[ending] = endings.get(ending, 0) + 1
         print(
             f"seed {seed}: {info['termination'] or 'running'} at {info['t_s']:.0f} s, "
             f"{info['position_m']:.1f} / {info['track_length_m']:.0f} m, load {info['load_kg']:.0f} kg, "
@@ -90,6 +104,8 @@ def main(argv: list[str] | None = None) -> int:
             print("  " + " ".join(f"{c:>14}" for c in TRACE_COLUMNS))
             for row in rows:
                 print("  " + " ".join(f"{x:14.3f}" if isinstance(x, float) else f"{x:>14}" for x in row))
+    if len(args.seeds) > 1:
+        print("endings: " + ", ".join(f"{k} {v}" for k, v in sorted(endings.items())))
     return 0
 
 

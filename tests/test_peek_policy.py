@@ -37,3 +37,13 @@ def test_the_env_is_built_as_the_policy_was_trained_and_the_trace_shows_the_last
     assert out[0].startswith("seed 100000: running at 3 s") and "/ 198 m" in out[0]
     assert out[1].split() == ["t_s", "position_m", "to_go_m", "speed_mps", "true_limit_mps", "action", "ending"]
     assert [float(r.split()[0]) for r in out[2:]] == [2.8, 2.9, 3.0]
+
+
+def test_sampled_actions_are_seeded_and_are_not_the_mean():
+    sac = ROOT / "results" / "rl" / "policies" / "sac_bare_accel_mix_s0_selected"
+    cmd = [*SCRIPT, str(sac), "--seeds", "100000", "100001", "--max-steps", "30", "--trace", "5"]
+    mean = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd=ROOT).stdout
+    a, b = (subprocess.run([*cmd, "--sample", "7"], capture_output=True, text=True, check=True, cwd=ROOT).stdout
+            for _ in range(2))
+    assert a == b and a != mean
+    assert a.splitlines()[-1] == "endings: running 2"

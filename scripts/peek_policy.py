@@ -9,8 +9,9 @@ Example::
 
 The target is a run directory, one of its checkpoint folders (``checkpoints/step_<n>``) or the ``model.zip`` in
 either; it is loaded as ``uuom-evaluate`` loads it (:class:`agents.evaluation.ModelPolicy`: the algorithm and the
-observation statistics from the run). The env is built with the configuration the policy was trained with (the
-run's ``config.json``), updated by ``--env-kwargs``. Prints per seed: the ending (or ``running`` after
+observation statistics from the run). The env is built with the configuration and the observer the policy was trained
+with (the run's ``config.json``), updated by ``--env-kwargs`` / ``--observer``; a policy that acts through the shield,
+a residual or a margin schedule is refused (``uuom-evaluate`` runs those). Prints per seed: the ending (or ``running`` after
 ``--max-steps``), time, distance covered, load, mean/max speed, mean true limit, mean deterministic command;
 ``--trace N`` also prints the episode's last N steps; ``--sample SEED`` runs the policy on sampled actions
 instead of its mean (what its training episodes did). Used in docs/rl.md to see what a policy's *mean* action does
@@ -37,7 +38,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("target", type=Path, help="run directory, checkpoint folder, or the model.zip in one")
     ap.add_argument("--seeds", type=int, nargs="+", default=[100_000, 100_001, 100_002])
-    ap.add_argument("--observer", default="dffrls-aekf")
+    ap.add_argument("--observer", default=None, help="default: the one the policy was trained with")
     ap.add_argument("--max-steps", type=int, default=3000)
     ap.add_argument("--no-normalize", action="store_true",
                     help="run a policy trained without VecNormalize (otherwise its statistics must be found)")
@@ -52,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     import torch
 
     import uuom_gym  # noqa: F401
-    from agents.evaluation import ModelPolicy, trained_env_kwargs
+    from agents.evaluation import ModelPolicy, run_config_path, trained_env_kwargs
 
     run_dir = args.target.parent if args.target.name == "model.zip" else args.target
     if not (run_dir / "model.zip").is_file():
@@ -65,8 +66,15 @@ def main(argv: list[str] | None = None) -> int:
         policy = ModelPolicy(run_dir)
     except FileNotFoundError as exc:
         raise SystemExit(str(exc)) from None
+    if policy.shield or policy.residual or policy.margin_schedule:
+        # the env here is the bare one: the policy's action alone would be judged, not the controller it is part of
+        raise SystemExit(f"{run_dir} acts through the shield, a residual or a margin schedule; run it with "
+                         f"uuom-evaluate, which wraps it as it was trained")
     if args.no_normalize:
         policy.vecnorm = None
+    if args.observer is None:
+        cfg_path = run_config_path(run_dir)
+        args.observer = (json.loads(cfg_path.read_text()) if cfg_path.is_file() else {}).get("observer", "dffrls-aekf")
     env_kwargs = {**trained_env_kwargs(run_dir), **args.env_kwargs}
     if args.sample is not None:
         torch.manual_seed(args.sample)

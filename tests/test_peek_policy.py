@@ -47,3 +47,11 @@ def test_sampled_actions_are_seeded_and_are_not_the_mean():
             for _ in range(2))
     assert a == b and a != mean
     assert a.splitlines()[-1] == "endings: running 2"
+
+
+def test_a_policy_that_acts_through_a_wrapper_is_refused():
+    # a margin schedule: its action is the rule-based controller's margin, not a command the bare env understands
+    margin = ROOT / "results" / "rl" / "policies" / "ppo_margin_004_012_300k_s0"
+    bad = subprocess.run([*SCRIPT, str(margin), "--seeds", "100000", "--max-steps", "5"],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert bad.returncode != 0 and "uuom-evaluate" in bad.stderr

@@ -159,10 +159,11 @@ class ModelPolicy:
                 self.vecnorm = pickle.load(fh)
             self.vecnorm.training = False
 
-    def act(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        """Deterministic action for one raw observation."""
+    def act(self, obs: np.ndarray, info: dict[str, Any], deterministic: bool = True) -> np.ndarray:
+        """The action for one raw observation: the policy's mean, or with ``deterministic=False`` a sample from its
+        distribution (torch's global generator)."""
         o = self.vecnorm.normalize_obs(obs) if self.vecnorm is not None and self.vecnorm.norm_obs else obs
-        action, _ = self.model.predict(o, deterministic=True)
+        action, _ = self.model.predict(o, deterministic=deterministic)
         return np.asarray(action, dtype=np.float32).reshape(1)
 
 

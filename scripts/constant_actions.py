@@ -29,7 +29,7 @@ def main(argv: list[str] | None = None) -> int:
 
     import uuom_gym  # noqa: F401 - registers the env
 
-    print("| action | " + " | ".join(["endings"]) + " |\n|---|---|")
+    print("| action | endings |\n|---|---|")
     for a in args.actions:
         ends: Counter[str] = Counter()
         for seed in range(args.seed_base, args.seed_base + args.episodes):

@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +54,7 @@ def main(argv: list[str] | None = None) -> int:
     import torch
 
     import uuom_gym  # noqa: F401
-    from agents.evaluation import ModelPolicy, run_config_path, trained_env_kwargs
+    from agents.evaluation import ModelPolicy, run_config_path
 
     run_dir = args.target.parent if args.target.name == "model.zip" else args.target
     if not (run_dir / "model.zip").is_file():
@@ -72,23 +73,19 @@ def main(argv: list[str] | None = None) -> int:
                          f"uuom-evaluate, which wraps it as it was trained")
     if args.no_normalize:
         policy.vecnorm = None
-    if args.observer is None:
-        cfg_path = run_config_path(run_dir)
-        args.observer = (json.loads(cfg_path.read_text()) if cfg_path.is_file() else {}).get("observer", "dffrls-aekf")
-    env_kwargs = {**trained_env_kwargs(run_dir), **args.env_kwargs}
+    cfg_path = run_config_path(run_dir)
+    trained = json.loads(cfg_path.read_text()) if cfg_path.is_file() else {}
+    observer = args.observer or trained.get("observer", "dffrls-aekf")
+    env_kwargs = {**(trained.get("env_kwargs") or {}), **args.env_kwargs}
     if args.sample is not None:
         torch.manual_seed(args.sample)
-    endings: dict[str, int] = {}
+    endings: Counter[str] = Counter()
     for seed in args.seeds:
-        env = gym.make("UUOM-Track-v0", observer=args.observer, **env_kwargs)
+        env = gym.make("UUOM-Track-v0", observer=observer, **env_kwargs)
         obs, info = env.reset(seed=seed)
         speed, cmd, lim, rows = [], [], [], []
         for _ in range(args.max_steps):
-            if args.sample is None:
-                a = policy.act(obs, info)
-            else:
-                o = policy.vecnorm.normalize_obs(obs) if policy.vecnorm is not None else obs
-                a = np.asarray(policy.model.predict(o, deterministic=False)[0], dtype=np.float32).reshape(1)
+            a = policy.act(obs, info, deterministic=args.sample is None)
             obs, _, term, trunc, info = env.step(a)
             speed.append(info["speed_mps"])
             cmd.append(float(np.clip(a[0], -1.0, 1.0)))
@@ -101,9 +98,9 @@ def main(argv: list[str] | None = None) -> int:
                 break
         env.close()
         ending = info["termination"] or "running"
-        endings[ending] = endings.get(ending, 0) + 1
+        endings[ending] += 1
         print(
-            f"seed {seed}: {info['termination'] or 'running'} at {info['t_s']:.0f} s, "
+            f"seed {seed}: {ending} at {info['t_s']:.0f} s, "
             f"{info['position_m']:.1f} / {info['track_length_m']:.0f} m, load {info['load_kg']:.0f} kg, "
             f"speed mean {np.mean(speed):.2f} max {np.max(speed):.2f} m/s, true limit mean {np.mean(lim):.2f}, "
             f"command mean {np.mean(cmd):.2f}"

@@ -23,7 +23,7 @@ import sys
 from pathlib import Path
 
 from agents.checkpoint_selection import candidates, rank, ranking_markdown
-from agents.evaluation import EvalConfig, controller_label, evaluate, run_config_path
+from agents.evaluation import DEFAULT_SEED_BASE, EvalConfig, controller_label, evaluate, run_config_path
 from agents.evaluation_table import read_episodes
 from agents.tune import VALIDATION_SEED_BASE
 
@@ -43,8 +43,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--copy-to", type=Path, default=None, help="copy each chosen policy to DIR/<run><suffix>")
     ap.add_argument("--suffix", default="_selected")
     args = ap.parse_args(argv)
-    if args.seed_base < VALIDATION_SEED_BASE and args.seed_base + args.episodes > 100_000:
-        ap.error(f"--seed-base {args.seed_base} overlaps the held-out tracks (100000 on); validate on others")
+    if args.seed_base < VALIDATION_SEED_BASE and args.seed_base + args.episodes > DEFAULT_SEED_BASE:
+        ap.error(f"--seed-base {args.seed_base} overlaps the held-out tracks ({DEFAULT_SEED_BASE} on); validate on others")
     for run in args.runs:
         try:
             cands = candidates(run, args.min_step, args.every)

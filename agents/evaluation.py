@@ -149,6 +149,8 @@ class ModelPolicy:
         if not path.exists():
             raise FileNotFoundError(f"{run_dir}: no model.zip (train it with uuom-train first)")
         self.model = algo_class(algo).load(path, device="cpu")
+        self.run_dir = run_dir
+        self.obs_shape = tuple(self.model.observation_space.shape)
         self.vecnorm = None
         if not vn_path.exists() and (cfg.get("normalize") or {}).get("norm_obs"):
             # Run without the statistics it was trained with, a policy sees garbage and "fails" for no fault of its own.
@@ -162,6 +164,11 @@ class ModelPolicy:
     def act(self, obs: np.ndarray, info: dict[str, Any], deterministic: bool = True) -> np.ndarray:
         """The action for one raw observation: the policy's mean, or with ``deterministic=False`` a sample from its
         distribution (torch's global generator)."""
+        if np.shape(obs) != self.obs_shape:
+            # e.g. a policy trained with idle_clock_observation run without it: say so, not a broadcast error
+            raise ValueError(f"{self.run_dir}: the policy takes observations of shape {self.obs_shape}, the env gives "
+                             f"{np.shape(obs)}; build the env with the policy's training configuration "
+                             f"(its config.json env_kwargs, e.g. idle_clock_observation)")
         o = self.vecnorm.normalize_obs(obs) if self.vecnorm is not None and self.vecnorm.norm_obs else obs
         action, _ = self.model.predict(o, deterministic=deterministic)
         return np.asarray(action, dtype=np.float32).reshape(1)

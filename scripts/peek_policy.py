@@ -13,7 +13,9 @@ observation statistics from the run). The env is built with the configuration an
 with (the run's ``config.json``), updated by ``--env-kwargs`` / ``--observer``; a policy that acts through the shield,
 a residual or a margin schedule is refused (``uuom-evaluate`` runs those). Prints per seed: the ending (or ``running`` after
 ``--max-steps``), time, distance covered, load, mean/max speed, mean true limit, mean deterministic command;
-``--trace N`` also prints the episode's last N steps; ``--sample SEED`` runs the policy on sampled actions
+``--trace N`` also prints the episode's last N steps, with ``--trace-obs NAME ...`` named observation entries
+beside them and with ``--critic`` an off-policy learner's critic, ``min(Q1, Q2)`` of the policy's action and of
+-1, 0, +1 (SAC/TD3: is the freeze the critic's or the actor's?); ``--sample SEED`` runs the policy on sampled actions
 instead of its mean (what its training episodes did). Used in docs/rl.md to see what a policy's *mean* action does
 (the training curves show the noisy policy).
 """
@@ -33,6 +35,21 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))  # this checkout's packages, not another installed copy
 
 TRACE_COLUMNS = ("t_s", "position_m", "to_go_m", "speed_mps", "true_limit_mps", "action", "ending")
+CRITIC_COLUMNS = ("Q(action)", "Q(-1)", "Q(0)", "Q(+1)")
+"""The observation entries of ``--trace-obs`` are printed as they were when the step's action was chosen; so is the
+critic."""
+
+
+def critic_values(policy, obs: np.ndarray, action: float) -> list[float]:
+    """``min(Q1, Q2)`` of the policy's critic at ``obs`` (normalised as the policy sees it) for ``action`` and for
+    -1, 0, +1, in that order."""
+    import torch
+
+    o = policy.vecnorm.normalize_obs(obs) if policy.vecnorm is not None and policy.vecnorm.norm_obs else obs
+    acts = torch.tensor([[action], [-1.0], [0.0], [1.0]], dtype=torch.float32)
+    with torch.no_grad():
+        q = policy.model.critic(torch.as_tensor(np.repeat(np.asarray(o, dtype=np.float32)[None], 4, 0)), acts)
+    return torch.min(*q).squeeze(-1).tolist()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -46,6 +63,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--env-kwargs", type=json.loads, default={},
                     help="JSON env config on top of the one the policy was trained with")
     ap.add_argument("--trace", type=int, default=0, metavar="N", help="print each episode's last N steps")
+    ap.add_argument("--trace-obs", nargs="+", default=[], metavar="NAME",
+                    help="observation entries (names of the env's observation table) printed in the trace")
+    ap.add_argument("--critic", action="store_true",
+                    help="print the critic's min(Q1, Q2) in the trace (SAC/TD3): of the action taken and of -1, 0, +1")
     ap.add_argument("--sample", type=int, default=None, metavar="SEED",
                     help="sample the actions from the policy's distribution (torch seeded once with SEED) instead of "
                          "taking its mean")
@@ -79,20 +100,34 @@ def main(argv: list[str] | None = None) -> int:
     env_kwargs = {**(trained.get("env_kwargs") or {}), **args.env_kwargs}
     if args.sample is not None:
         torch.manual_seed(args.sample)
+    critic = getattr(policy.model, "critic", None) if args.critic else None
+    if args.critic and critic is None:
+        raise SystemExit(f"{run_dir}: --critic needs an off-policy learner with a Q critic (SAC/TD3), "
+                         f"this is {type(policy.model).__name__}")
+    columns = TRACE_COLUMNS + tuple(args.trace_obs) + (CRITIC_COLUMNS if critic is not None else ())
     endings: Counter[str] = Counter()
     for seed in args.seeds:
         env = gym.make("UUOM-Track-v0", observer=observer, **env_kwargs)
+        names = env.unwrapped.observation_names
+        unknown = [n for n in args.trace_obs if n not in names]
+        if unknown:
+            raise SystemExit(f"--trace-obs: unknown observation name(s) {', '.join(unknown)}; "
+                             f"the env's are {', '.join(names)}")
         obs, info = env.reset(seed=seed)
         speed, cmd, lim, rows = [], [], [], []
         for _ in range(args.max_steps):
             a = policy.act(obs, info, deterministic=args.sample is None)
+            seen = [float(obs[names.index(n)]) for n in args.trace_obs]
+            if critic is not None and args.trace:
+                seen += critic_values(policy, obs, float(a[0]))
             obs, _, term, trunc, info = env.step(a)
             speed.append(info["speed_mps"])
             cmd.append(float(np.clip(a[0], -1.0, 1.0)))
             lim.append(info["true_speed_limit_mps"])
             if args.trace:
                 rows.append((info["t_s"], info["position_m"], info["distance_to_go_m"],
-                             info["speed_mps"], info["true_speed_limit_mps"], cmd[-1], info["termination"] or ""))
+                             info["speed_mps"], info["true_speed_limit_mps"], cmd[-1], info["termination"] or "",
+                             *seen))
                 del rows[:-args.trace]
             if term or trunc:
                 break
@@ -106,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
             f"command mean {np.mean(cmd):.2f}"
         )
         if rows:
-            print("  " + " ".join(f"{c:>14}" for c in TRACE_COLUMNS))
+            print("  " + " ".join(f"{c:>14}" for c in columns))
             for row in rows:
                 print("  " + " ".join(f"{x:14.3f}" if isinstance(x, float) else f"{x:>14}" for x in row))
     if len(args.seeds) > 1:

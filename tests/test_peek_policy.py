@@ -55,3 +55,24 @@ def test_a_policy_that_acts_through_a_wrapper_is_refused():
     bad = subprocess.run([*SCRIPT, str(margin), "--seeds", "100000", "--max-steps", "5"],
                          capture_output=True, text=True, cwd=ROOT)
     assert bad.returncode != 0 and "uuom-evaluate" in bad.stderr
+
+
+def test_the_trace_can_show_observation_entries_and_the_critic():
+    sac = ROOT / "results" / "rl" / "policies" / "sac_bare_accel_mix_s1_selected"
+    out = subprocess.run([*SCRIPT, str(sac), "--seeds", "100000", "--max-steps", "20", "--trace", "2",
+                          "--trace-obs", "speed", "est_mass_std", "--critic"],
+                         capture_output=True, text=True, check=True, cwd=ROOT).stdout.splitlines()
+    assert out[1].split()[-6:] == ["speed", "est_mass_std", "Q(action)", "Q(-1)", "Q(0)", "Q(+1)"]
+    rows = [[float(x) for x in r.split()] for r in out[2:]]
+    assert len(rows) == 2 and all(len(r) == 12 for r in rows)  # 'ending' is empty while running
+    assert all(abs(r[6] * 2.0 - r[3]) < 0.2 for r in rows)  # observed speed / 2 m/s ~ the step's speed
+
+
+def test_the_critic_is_refused_for_an_on_policy_learner_and_unknown_names_are_named():
+    ppo = ROOT / "results" / "rl" / "policies" / "ppo_bare_accel_mix_s1_selected"
+    bad = subprocess.run([*SCRIPT, str(ppo), "--seeds", "100000", "--max-steps", "5", "--trace", "2", "--critic"],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert bad.returncode != 0 and "SAC/TD3" in bad.stderr and "PPO" in bad.stderr
+    bad = subprocess.run([*SCRIPT, str(ppo), "--seeds", "100000", "--max-steps", "5", "--trace-obs", "sped"],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert bad.returncode != 0 and "unknown observation name(s) sped" in bad.stderr

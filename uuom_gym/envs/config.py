@@ -38,6 +38,7 @@ def default_config() -> dict[str, Any]:
         "observer": "dffrls-aekf",
         "observer_options": {},
         "slip_observation": "sensors",
+        "idle_clock_observation": False,
         # --- task -------------------------------------------------------------------------------------------
         "scenario": None,
         "track_length_m": (100.0, 300.0),
@@ -111,6 +112,10 @@ CONFIG_DOCS: dict[str, str] = {
     "slip_observation": "Observation entry 11: 'sensors' (apparent slip velocity from the motor and ground-speed "
     "encoders / 0.5 m/s) or 'estimator' (the observer's estimated slip ratio, e.g. observer='aupf'; falls back to "
     "the sensors when the observer gives none).",
+    "idle_clock_observation": "If True, a 17th observation entry 'idle_clock': seconds since the train last got 1 m "
+    "further / idle_limit_s (0..1; 0 with idle_limit_s=None). The 'stopped_short' ending is a clock the policy "
+    "could not see; with it, the ending is a function of the observation (docs/rl.md §34). Off by default: "
+    "policies trained on 16 entries keep their input.",
     "scenario": "None for a random track per reset, or 'section1' | 'section2' | 'roadtest' (paper's fixed runs).",
     "track_length_m": "(low, high) length of random tracks in metres (the spec's roadways allow 200-1500 m; the "
     "default is shorter so episodes last a few hundred to a few thousand policy steps).",
@@ -321,6 +326,9 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
     _check_number(cfg, "rollback_trip_m", 0.0, 1e6, open_lo=True)
     if cfg["idle_limit_s"] is not None:
         _check_number(cfg, "idle_limit_s", 0.0, 1e6, open_lo=True)
+    if not isinstance(cfg["idle_clock_observation"], bool):
+        raise ConfigError(f"config key 'idle_clock_observation' must be True or False, "
+                          f"got {cfg['idle_clock_observation']!r}")
     _check_number(cfg, "shaping_gamma", 0.0, 1.0)
     if cfg["action_mode"] not in ACTION_MODES:
         raise ConfigError(

@@ -33,6 +33,8 @@ idx  name                     value                                             
 13   ``cautious_limit``       v_lim(M + 2 sigma_M, min(slope - 2 sigma, grade_mf)) / v_max       [0, 1.5]
 14   ``cautious_margin``      (measured speed - cautious limit) / v_max                           [-2, 2]
 15   ``stop_margin``          (measured speed - sqrt(2 * 0.3 m/s^2 * distance to go)) / v_max     [-2, 2]
+16   ``idle_clock``           opt-in (``idle_clock_observation=True``): seconds since the train    [0, 1]
+                              last got 1 m further / ``idle_limit_s``
 ===  =======================  ==================================================================  ============
 
 Entries 12-15 (added in v0 rev. 2, see the env's Version History) are functions of the entries above and of the
@@ -92,6 +94,8 @@ OBS_NAMES: tuple[str, ...] = (
     "cautious_margin",
     "stop_margin",
 )
+IDLE_CLOCK_NAME = "idle_clock"
+"""Name of the opt-in 17th entry (config ``idle_clock_observation``), appended after :data:`OBS_NAMES`."""
 OBS_LOW = np.array([-2, -4, -1, -0.5, 0, -2, 0, 0, -2, -0.5, -1, -4, -2, 0, -2, -2], dtype=np.float32)
 OBS_HIGH = np.array([2, 4, 1, 1.5, 2, 2, 2, 1.5, 2, 1.5, 1, 4, 2, 1.5, 2, 2], dtype=np.float32)
 _LOW_LIST = [float(x) for x in OBS_LOW]
@@ -106,9 +110,17 @@ GRADE_MF_SMOOTHING = 0.3
 MASS_STD_FLOOR_FRAC = 0.02
 """``cautious_limit`` never believes a mass std below this fraction of the estimate (as agents.shield)."""
 
-def observation_space() -> spaces.Box:
-    """The observation space (float32 Box with the bounds of the module table)."""
+def observation_space(idle_clock: bool = False) -> spaces.Box:
+    """The observation space (float32 Box with the bounds of the module table); ``idle_clock`` appends entry 16."""
+    if idle_clock:
+        return spaces.Box(low=np.append(OBS_LOW, np.float32(0.0)), high=np.append(OBS_HIGH, np.float32(1.0)),
+                          dtype=np.float32)
     return spaces.Box(low=OBS_LOW.copy(), high=OBS_HIGH.copy(), dtype=np.float32)
+
+
+def observation_names(idle_clock: bool = False) -> tuple[str, ...]:
+    """The names of the observation entries, with the opt-in ``idle_clock`` last when it is on."""
+    return OBS_NAMES + ((IDLE_CLOCK_NAME,) if idle_clock else ())
 
 
 class ObservationBuilder:
@@ -288,11 +300,12 @@ def decode_observation(obs: np.ndarray, vehicle: VehicleParams, track_length_m: 
     Raises
     ------
     ValueError
-        If ``obs`` is not ``len(OBS_NAMES)`` finite values.
+        If ``obs`` is not ``len(OBS_NAMES)`` finite values (one more with the idle clock).
     """
     o = np.asarray(obs, dtype=float).reshape(-1)
-    if o.shape[0] != len(OBS_NAMES) or not np.all(np.isfinite(o)):
-        raise ValueError(f"observation must be {len(OBS_NAMES)} finite values, got shape {o.shape}")
+    if o.shape[0] not in _OBS_SIZES or not np.all(np.isfinite(o)):
+        raise ValueError(f"observation must be {len(OBS_NAMES)} (or, with the idle clock, {len(OBS_NAMES) + 1}) "
+                         f"finite values, got shape {o.shape}")
     idx = _OBS_INDEX
     grade = math.radians(vehicle.max_grade_deg)
     near = o[idx["distance_to_go_near"]]
@@ -312,6 +325,7 @@ def decode_observation(obs: np.ndarray, vehicle: VehicleParams, track_length_m: 
 
 
 _OBS_INDEX = {n: i for i, n in enumerate(OBS_NAMES)}
+_OBS_SIZES = (len(OBS_NAMES), len(OBS_NAMES) + 1)
 
 
 def observation_by_name(obs: np.ndarray) -> dict[str, float]:
@@ -320,16 +334,18 @@ def observation_by_name(obs: np.ndarray) -> dict[str, float]:
     Raises
     ------
     ValueError
-        If ``obs`` does not hold ``len(OBS_NAMES)`` values.
+        If ``obs`` does not hold ``len(OBS_NAMES)`` values (one more with the idle clock).
     """
     o = np.asarray(obs, dtype=float).reshape(-1)
-    if o.shape[0] != len(OBS_NAMES):
-        raise ValueError(f"observation must hold {len(OBS_NAMES)} values, got shape {np.shape(obs)}")
-    return dict(zip(OBS_NAMES, o.tolist()))
+    if o.shape[0] not in _OBS_SIZES:
+        raise ValueError(f"observation must hold {len(OBS_NAMES)} (or, with the idle clock, {len(OBS_NAMES) + 1}) "
+                         f"values, got shape {np.shape(obs)}")
+    return dict(zip(observation_names(o.shape[0] > len(OBS_NAMES)), o.tolist()))
 
 
 __all__ = [
     "DecodedObservation",
+    "IDLE_CLOCK_NAME",
     "OBS_HIGH",
     "OBS_LOW",
     "OBS_NAMES",
@@ -340,6 +356,7 @@ __all__ = [
     "decode_observation",
     "make_observer",
     "observation_by_name",
+    "observation_names",
     "observation_space",
     "worst_case_speed_limit_mps",
 ]

@@ -21,6 +21,7 @@ from uuom_gym.envs.observation import (
     ObservationBuilder,
     PriorObserver,
     make_observer,
+    observation_names,
     observation_space,
     worst_case_speed_limit_mps,
 )
@@ -97,7 +98,9 @@ class UUOMTrackEnv(gym.Env):
     ``observer_options={"mass_error": e, "slope_error_deg": d}`` adds a set error, for sensitivity studies);
     with ``observer="none"`` they hold the prior and the worst-case limit (rated load, steepest down-grade).
     Entries 12-15 are functions of the others and of the previous step's speed, which a memoryless policy
-    cannot form (see :mod:`uuom_gym.envs.observation`).
+    cannot form (see :mod:`uuom_gym.envs.observation`). With ``idle_clock_observation=True`` (opt-in) a 17th
+    entry, ``idle_clock`` in ``[0, 1]``, is the time since the train last got 1 m further over ``idle_limit_s``:
+    how close the ``stopped_short`` ending is.
 
     ## Rewards
 
@@ -222,6 +225,9 @@ class UUOMTrackEnv(gym.Env):
     * v0 (rev. 16, no id change, default behaviour unchanged): opt-in config ``action_mode="acceleration"`` with
       ``accel_demand_mps2``. Reason (docs/rl.md §32): on the traction command a small mean command does not move a
       train at rest (the force is below breakaway), so the policy's mean never learnt to start or stop it (§27-§31).
+    * v0 (rev. 17, no id change, default behaviour unchanged): opt-in config ``idle_clock_observation`` (17th entry
+      ``idle_clock``). Reason (docs/rl.md §34): the ``stopped_short`` ending ran on a clock outside the observation,
+      so a critic could not tell a crawl about to end from one that would not.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
@@ -249,7 +255,8 @@ class UUOMTrackEnv(gym.Env):
         self._cautious_mps = 0.0
         self._target_mps: float | None = None
         self._accel_demand = 0.0
-        self.observation_space = observation_space()
+        self.observation_space = observation_space(cfg["idle_clock_observation"])
+        self.observation_names = observation_names(cfg["idle_clock_observation"])
         self.observer = make_observer(cfg["observer"], self.vehicle, cfg["observer_options"],
                                       fault_free_sensors=cfg["sensor_faults"] is None)
         self.safety = SafetyMonitor(self.vehicle, SafetyParams.from_config(cfg))
@@ -483,6 +490,10 @@ class UUOMTrackEnv(gym.Env):
         prior = self._none_limit if isinstance(self.observer, PriorObserver) else None
         obs = self.obs_builder.build(self.last_command, m, th, ms, ts, self._est_limit, slip, prior)
         self._cautious_mps = float(obs[13]) * self.obs_builder.v_max
+        if self.config["idle_clock_observation"]:
+            limit = self.config["idle_limit_s"]
+            clock = min(max((self.t_s - self._advance_t_s) / limit, 0.0), 1.0) if limit is not None else 0.0
+            obs = np.append(obs, np.float32(clock))
         return obs
 
     def _info(self, cost, costs, violations, rewards, success, termination) -> dict[str, Any]:

@@ -93,6 +93,7 @@ def test_default_mode_has_no_demand_in_info():
 @pytest.mark.parametrize("name, episodes", [
     ("ppo_bare_accel_mix_s1_selected", "acceleration_action/eval/pooled_5seeds"),
     ("sac_bare_accel_mix_s0_selected", "sac_acceleration/eval/pooled_4seeds"),
+    ("sac_bare_accel_clock_s0_selected", "idle_clock/eval/pooled_4seeds"),
 ])
 def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode(name, episodes):
     import json
@@ -109,8 +110,10 @@ def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode
     if want["float_path"] != float_path_fingerprint():
         pytest.skip(f"the committed row was written with float32 path {want['float_path']}; this machine has "
                     f"{float_path_fingerprint()}: a policy's episode is reproducible only on the same path")
-    # Judged on the default tracks: only the action mode of its training configuration, not its 50-300 m tracks.
-    got = run_episode(Task(str(root / "results" / "rl" / "policies" / name), "dffrls-aekf", 100_000,
-                           json.dumps({"action_mode": "acceleration"})))
+    # Judged on the default tracks: its training configuration (action mode, idle clock) without its 50-300 m tracks.
+    run = root / "results" / "rl" / "policies" / name
+    trained = json.loads((run / "config.json").read_text())["env_kwargs"]
+    got = run_episode(Task(str(run), "dffrls-aekf", 100_000,
+                           json.dumps({k: v for k, v in trained.items() if k != "track_length_m"})))
     assert (got["termination"], got["steps"]) == (want["termination"], want["steps"])
     assert got["trip_time_s"] == pytest.approx(want["trip_time_s"], abs=1e-9)

@@ -100,6 +100,8 @@ def main(argv: list[str] | None = None) -> int:
     env_kwargs = {**(trained.get("env_kwargs") or {}), **args.env_kwargs}
     if args.sample is not None:
         torch.manual_seed(args.sample)
+    if (args.critic or args.trace_obs) and not args.trace:
+        raise SystemExit("--critic and --trace-obs print columns of the trace: give --trace N too")
     critic = getattr(policy.model, "critic", None) if args.critic else None
     if args.critic and critic is None:
         raise SystemExit(f"{run_dir}: --critic needs an off-policy learner with a Q critic (SAC/TD3), "
@@ -118,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
         for _ in range(args.max_steps):
             a = policy.act(obs, info, deterministic=args.sample is None)
             seen = [float(obs[names.index(n)]) for n in args.trace_obs]
-            if critic is not None and args.trace:
+            if critic is not None:
                 seen += critic_values(policy, obs, float(a[0]))
             obs, _, term, trunc, info = env.step(a)
             speed.append(info["speed_mps"])

@@ -73,6 +73,9 @@ def test_the_critic_is_refused_for_an_on_policy_learner_and_unknown_names_are_na
     bad = subprocess.run([*SCRIPT, str(ppo), "--seeds", "100000", "--max-steps", "5", "--trace", "2", "--critic"],
                          capture_output=True, text=True, cwd=ROOT)
     assert bad.returncode != 0 and "SAC/TD3" in bad.stderr and "PPO" in bad.stderr
-    bad = subprocess.run([*SCRIPT, str(ppo), "--seeds", "100000", "--max-steps", "5", "--trace-obs", "sped"],
-                         capture_output=True, text=True, cwd=ROOT)
+    bad = subprocess.run([*SCRIPT, str(ppo), "--seeds", "100000", "--max-steps", "5", "--trace", "2",
+                          "--trace-obs", "sped"], capture_output=True, text=True, cwd=ROOT)
     assert bad.returncode != 0 and "unknown observation name(s) sped" in bad.stderr
+    bad = subprocess.run([*SCRIPT, str(ppo), "--seeds", "100000", "--max-steps", "5", "--trace-obs", "speed"],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert bad.returncode != 0 and "give --trace N too" in bad.stderr

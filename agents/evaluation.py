@@ -161,16 +161,19 @@ class ModelPolicy:
                 self.vecnorm = pickle.load(fh)
             self.vecnorm.training = False
 
-    def act(self, obs: np.ndarray, info: dict[str, Any], deterministic: bool = True) -> np.ndarray:
-        """The action for one raw observation: the policy's mean, or with ``deterministic=False`` a sample from its
-        distribution (torch's global generator)."""
+    def normalized(self, obs: np.ndarray) -> np.ndarray:
+        """One raw observation as the model sees it (its VecNormalize statistics applied, if it had them)."""
         if np.shape(obs) != self.obs_shape:
             # e.g. a policy trained with idle_clock_observation run without it: say so, not a broadcast error
             raise ValueError(f"{self.run_dir}: the policy takes observations of shape {self.obs_shape}, the env gives "
                              f"{np.shape(obs)}; build the env with the policy's training configuration "
                              f"(its config.json env_kwargs, e.g. idle_clock_observation)")
-        o = self.vecnorm.normalize_obs(obs) if self.vecnorm is not None and self.vecnorm.norm_obs else obs
-        action, _ = self.model.predict(o, deterministic=deterministic)
+        return self.vecnorm.normalize_obs(obs) if self.vecnorm is not None and self.vecnorm.norm_obs else obs
+
+    def act(self, obs: np.ndarray, info: dict[str, Any], deterministic: bool = True) -> np.ndarray:
+        """The action for one raw observation: the policy's mean, or with ``deterministic=False`` a sample from its
+        distribution (torch's global generator)."""
+        action, _ = self.model.predict(self.normalized(obs), deterministic=deterministic)
         return np.asarray(action, dtype=np.float32).reshape(1)
 
 

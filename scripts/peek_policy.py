@@ -45,7 +45,7 @@ def critic_values(policy, obs: np.ndarray, action: float) -> list[float]:
     -1, 0, +1, in that order."""
     import torch
 
-    o = policy.vecnorm.normalize_obs(obs) if policy.vecnorm is not None and policy.vecnorm.norm_obs else obs
+    o = policy.normalized(obs)
     acts = torch.tensor([[action], [-1.0], [0.0], [1.0]], dtype=torch.float32)
     with torch.no_grad():
         q = policy.model.critic(torch.as_tensor(np.repeat(np.asarray(o, dtype=np.float32)[None], 4, 0)), acts)
@@ -115,11 +115,12 @@ def main(argv: list[str] | None = None) -> int:
         if unknown:
             raise SystemExit(f"--trace-obs: unknown observation name(s) {', '.join(unknown)}; "
                              f"the env's are {', '.join(names)}")
+        shown = [names.index(n) for n in args.trace_obs]
         obs, info = env.reset(seed=seed)
         speed, cmd, lim, rows = [], [], [], []
         for _ in range(args.max_steps):
             a = policy.act(obs, info, deterministic=args.sample is None)
-            seen = [float(obs[names.index(n)]) for n in args.trace_obs]
+            seen = [float(obs[i]) for i in shown]
             if critic is not None:
                 seen += critic_values(policy, obs, float(a[0]))
             obs, _, term, trunc, info = env.step(a)

@@ -94,6 +94,7 @@ def test_default_mode_has_no_demand_in_info():
     ("ppo_bare_accel_mix_s1_selected", "acceleration_action/eval/pooled_5seeds"),
     ("sac_bare_accel_mix_s0_selected", "sac_acceleration/eval/pooled_4seeds"),
     ("sac_bare_accel_clock_s0_selected", "idle_clock/eval/pooled_4seeds"),
+    ("sac_bare_accel_caution_s3_selected", "caution/eval/pooled_4seeds"),
 ])
 def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode(name, episodes):
     import json
@@ -110,10 +111,11 @@ def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode
     if want["float_path"] != float_path_fingerprint():
         pytest.skip(f"the committed row was written with float32 path {want['float_path']}; this machine has "
                     f"{float_path_fingerprint()}: a policy's episode is reproducible only on the same path")
-    # Judged on the default tracks: its training configuration (action mode, idle clock) without its 50-300 m tracks.
+    # Judged on the default tracks and reward: its training configuration (action mode, idle clock) without its
+    # 50-300 m tracks and its reward weights (a training-only term such as `caution` does not change the episode).
     run = root / "results" / "rl" / "policies" / name
     trained = json.loads((run / "config.json").read_text())["env_kwargs"]
     got = run_episode(Task(str(run), "dffrls-aekf", 100_000,
-                           json.dumps({k: v for k, v in trained.items() if k != "track_length_m"})))
+                           json.dumps({k: v for k, v in trained.items() if k not in ("track_length_m", "reward_weights")})))
     assert (got["termination"], got["steps"]) == (want["termination"], want["steps"])
     assert got["trip_time_s"] == pytest.approx(want["trip_time_s"], abs=1e-9)

@@ -115,7 +115,7 @@ def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode
     # 50-300 m tracks and its reward weights (a training-only term such as `caution` does not change the episode).
     run = root / "results" / "rl" / "policies" / name
     trained = json.loads((run / "config.json").read_text())["env_kwargs"]
-    got = run_episode(Task(str(run), "dffrls-aekf", 100_000,
-                           json.dumps({k: v for k, v in trained.items() if k not in ("track_length_m", "reward_weights")})))
+    judged = {k: v for k, v in trained.items() if k not in ("track_length_m", "reward_weights")}
+    got = run_episode(Task(str(run), "dffrls-aekf", 100_000, json.dumps(judged)))
     assert (got["termination"], got["steps"]) == (want["termination"], want["steps"])
     assert got["trip_time_s"] == pytest.approx(want["trip_time_s"], abs=1e-9)

@@ -100,7 +100,7 @@ def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode
     import json
     from pathlib import Path
 
-    from agents.evaluation import Task, read_episodes, run_episode
+    from agents.evaluation import Task, read_episodes, run_episode, trained_env_kwargs
     from agents.float_path import float_path_fingerprint
 
     root = Path(__file__).resolve().parents[1]
@@ -114,8 +114,7 @@ def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode
     # Judged on the default tracks and reward: its training configuration (action mode, idle clock) without its
     # 50-300 m tracks and its reward weights (a training-only term such as `caution` does not change the episode).
     run = root / "results" / "rl" / "policies" / name
-    trained = json.loads((run / "config.json").read_text())["env_kwargs"]
-    judged = {k: v for k, v in trained.items() if k not in ("track_length_m", "reward_weights")}
+    judged = {k: v for k, v in trained_env_kwargs(run).items() if k not in ("track_length_m", "reward_weights")}
     got = run_episode(Task(str(run), "dffrls-aekf", 100_000, json.dumps(judged)))
     assert (got["termination"], got["steps"]) == (want["termination"], want["steps"])
     assert got["trip_time_s"] == pytest.approx(want["trip_time_s"], abs=1e-9)

@@ -90,16 +90,17 @@ def control_input_from_info(info: Mapping[str, Any], dt_s: float) -> ControlInpu
 
 
 def control_input_from_obs(
-    obs: np.ndarray, vehicle: VehicleParams, track_length_m: float, dt_s: float
+    obs: np.ndarray, vehicle: VehicleParams, track_length_m: float, dt_s: float, near_shape: str = "clip"
 ) -> ControlInput:
     """Decode ``UUOM-Track-v0``'s (un-normalised) observation vector into a :class:`ControlInput`.
 
     Uses exactly what a learning agent sees (:func:`uuom_gym.envs.observation.decode_observation`): measured
     speed, estimated mass/slope and their standard deviations, odometry distance to the station. Position is not
-    in the observation; it is reported as ``track_length_m - distance_to_go``.
+    in the observation; it is reported as ``track_length_m - distance_to_go``. ``near_shape`` is the env's
+    ``near_distance_observation``.
     """
     try:
-        d = decode_observation(obs, vehicle, track_length_m)
+        d = decode_observation(obs, vehicle, track_length_m, near_shape)
     except ValueError as exc:
         raise ControlInputError(str(exc)) from None
     return ControlInput(

@@ -232,6 +232,7 @@ class ShieldWrapper(gym.Wrapper):
         self._track_length_m = 1.0
         cfg = getattr(env.unwrapped, "config", {}) or {}
         self._dt_s = 1.0 / float(cfg.get("policy_hz", 10.0))
+        self._near_shape = str(cfg.get("near_distance_observation", "clip"))
 
     def reset(self, **kwargs: Any):
         obs, info = self.env.reset(**kwargs)
@@ -244,7 +245,8 @@ class ShieldWrapper(gym.Wrapper):
         a = np.asarray(action, dtype=np.float32).reshape(-1)
         if self._last_obs is None:
             raise gym.error.ResetNeeded("ShieldWrapper: call reset() before step()")
-        x = control_input_from_obs(self._last_obs, self.shield.vehicle, self._track_length_m, self._dt_s)
+        x = control_input_from_obs(self._last_obs, self.shield.vehicle, self._track_length_m, self._dt_s,
+                                   self._near_shape)
         safe = self.shield.filter(float(a[0]), x)
         obs, reward, term, trunc, info = self.env.step(np.array([safe], dtype=np.float32))
         info = dict(info)

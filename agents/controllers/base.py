@@ -66,6 +66,7 @@ class SpeedController:
         self.vehicle = vehicle
         self.dt_s = float(dt_s)
         self.track_length_m: float | None = None
+        self.near_shape = "clip"
 
     def reset(self, env: Any = None, info: Mapping[str, Any] | None = None) -> None:
         """Start an episode (subclasses read what they may know from the env / the reset info)."""
@@ -74,6 +75,7 @@ class SpeedController:
             cfg = getattr(base, "config", None)
             if isinstance(cfg, Mapping) and "policy_hz" in cfg:
                 self.dt_s = 1.0 / float(cfg["policy_hz"])
+                self.near_shape = str(cfg.get("near_distance_observation", "clip"))
             track = getattr(base, "track", None)
             if track is not None:
                 self.track_length_m = float(track.length_m)
@@ -84,7 +86,7 @@ class SpeedController:
     def act(self, obs: Any, info: Mapping[str, Any]) -> np.ndarray:
         """Action for ``env.step`` from the latest observation (preferred: what an agent sees) or the info."""
         if obs is not None and self.track_length_m is not None:
-            x = control_input_from_obs(obs, self.vehicle, self.track_length_m, self.dt_s)
+            x = control_input_from_obs(obs, self.vehicle, self.track_length_m, self.dt_s, self.near_shape)
         else:
             x = control_input_from_info(info, self.dt_s)
         cmd = self.command(x)

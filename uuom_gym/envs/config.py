@@ -12,6 +12,7 @@ import math
 from typing import Any, Mapping
 
 from uuom_gym.envs.actions import ACTION_MODES
+from uuom_gym.envs.observation import NEAR_SHAPES
 from uuom_gym.sim.track import SCENARIO_NAMES as SCENARIOS
 """The paper's fixed runs (spec §3): the track, the load and the nominal conditions are fixed."""
 
@@ -39,6 +40,7 @@ def default_config() -> dict[str, Any]:
         "observer_options": {},
         "slip_observation": "sensors",
         "idle_clock_observation": False,
+        "near_distance_observation": "clip",
         # --- task -------------------------------------------------------------------------------------------
         "scenario": None,
         "track_length_m": (100.0, 300.0),
@@ -116,6 +118,9 @@ CONFIG_DOCS: dict[str, str] = {
     "further / idle_limit_s (0..1; 0 with idle_limit_s=None). The 'stopped_short' ending is a clock the policy "
     "could not see; with it, the ending is a function of the observation (docs/rl.md §34). Off by default: "
     "policies trained on 16 entries keep their input.",
+    "near_distance_observation": "Shape of observation entry 10, distance_to_go_near: 'clip' (distance / 30 m "
+    "clipped to +-1: flat beyond 30 m, with a corner there) or 'tanh' (tanh(distance / 30 m): the same slope at the "
+    "station, no corner; docs/rl.md §37). Default 'clip': policies trained on it keep their input.",
     "scenario": "None for a random track per reset, or 'section1' | 'section2' | 'roadtest' (paper's fixed runs).",
     "track_length_m": "(low, high) length of random tracks in metres (the spec's roadways allow 200-1500 m; the "
     "default is shorter so episodes last a few hundred to a few thousand policy steps).",
@@ -329,6 +334,11 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
     if not isinstance(cfg["idle_clock_observation"], bool):
         raise ConfigError(f"config key 'idle_clock_observation' must be True or False, "
                           f"got {cfg['idle_clock_observation']!r}")
+    if cfg["near_distance_observation"] not in NEAR_SHAPES:
+        raise ConfigError(
+            f"config key 'near_distance_observation' must be one of {', '.join(map(repr, NEAR_SHAPES))}, "
+            f"got {cfg['near_distance_observation']!r}"
+        )
     _check_number(cfg, "shaping_gamma", 0.0, 1.0)
     if cfg["action_mode"] not in ACTION_MODES:
         raise ConfigError(

@@ -28,6 +28,7 @@ idx  name                     value                                             
 8    ``speed_margin``         (measured speed - estimated limit) / v_max                          [-2, 2]
 9    ``distance_to_go``       (station position - odometry position) / track length               [-0.5, 1.5]
 10   ``distance_to_go_near``  (station position - odometry position) / 30 m (fine, near stop)     [-1, 1]
+                              (``near_distance_observation="tanh"``: tanh of it, no clip corner)
 11   ``wheel_slip``           (motor speed * nominal radius - measured speed) / 0.5 m/s           [-4, 4]
 12   ``grade_mf``             model-free grade asin((f - dv/dt) / g), low-passed / max grade      [-2, 2]
 13   ``cautious_limit``       v_lim(M + 2 sigma_M, min(slope - 2 sigma, grade_mf)) / v_max       [0, 1.5]
@@ -102,6 +103,12 @@ _LOW_LIST = [float(x) for x in OBS_LOW]
 _HIGH_LIST = [float(x) for x in OBS_HIGH]
 ACCEL_SCALE_MPS2 = 2.5
 NEAR_SCALE_M = 30.0
+NEAR_SHAPES: tuple[str, ...] = ("clip", "tanh")
+"""Shapes of ``distance_to_go_near`` (config ``near_distance_observation``): ``"clip"`` (default) is
+``d / NEAR_SCALE_M`` clipped to +-1, flat beyond 30 m with a corner there; ``"tanh"`` is ``tanh(d / NEAR_SCALE_M)``,
+which has the same slope at the station and none of the corner (docs/rl.md §37)."""
+_NEAR_DECODE_MAX = 0.99
+"""Beyond this |value| of the tanh channel (79 m) the decoder trusts the coarse channel instead."""
 SLIP_SCALE_MPS = 0.5
 STOP_MARGIN_DECEL_MPS2 = 0.3
 """Deceleration of the braking curve in ``stop_margin``."""
@@ -130,7 +137,12 @@ class ObservationBuilder:
     valid measurements (used when a whole step's samples are dropouts).
     """
 
-    def __init__(self, vehicle: VehicleParams, track_length_m: float, station_m: float) -> None:
+    def __init__(
+        self, vehicle: VehicleParams, track_length_m: float, station_m: float, near_shape: str = "clip"
+    ) -> None:
+        if near_shape not in NEAR_SHAPES:
+            raise ValueError(f"near_shape must be one of {', '.join(map(repr, NEAR_SHAPES))}, got {near_shape!r}")
+        self.near_tanh = near_shape == "tanh"
         self.vehicle = vehicle
         self.track_length_m = float(track_length_m)
         self.station_m = float(station_m)
@@ -225,7 +237,7 @@ class ObservationBuilder:
             est_speed_limit_mps / self.v_max,
             (self.speed_mps - est_speed_limit_mps) / self.v_max,
             to_go / self.track_length_m,
-            to_go / NEAR_SCALE_M,
+            math.tanh(to_go / NEAR_SCALE_M) if self.near_tanh else to_go / NEAR_SCALE_M,
             self.slip_mps / SLIP_SCALE_MPS if slip_ratio is None else slip_ratio,
             (self.grade_mf_rad or 0.0) / self.grade_scale,
             cautious / self.v_max,
@@ -291,16 +303,20 @@ class DecodedObservation:
     distance_to_go_m: float
 
 
-def decode_observation(obs: np.ndarray, vehicle: VehicleParams, track_length_m: float) -> DecodedObservation:
+def decode_observation(
+    obs: np.ndarray, vehicle: VehicleParams, track_length_m: float, near_shape: str = "clip"
+) -> DecodedObservation:
     """Invert the normalisation of :meth:`ObservationBuilder.build` (un-normalised observation in, SI out).
 
     Clipped entries stay clipped: e.g. ``distance_to_go_near`` saturates at +-``NEAR_SCALE_M``, so beyond it the
-    coarse (track-length) channel is used.
+    coarse (track-length) channel is used. ``near_shape`` is the env's ``near_distance_observation``; the tanh
+    channel is inverted up to 0.99 (79 m), the coarse channel used beyond.
 
     Raises
     ------
     ValueError
-        If ``obs`` is not ``len(OBS_NAMES)`` finite values (one more with the idle clock).
+        If ``obs`` is not ``len(OBS_NAMES)`` finite values (one more with the idle clock), or ``near_shape`` is
+        not one of :data:`NEAR_SHAPES`.
     """
     o = np.asarray(obs, dtype=float).reshape(-1)
     if o.shape[0] not in _OBS_SIZES or not np.all(np.isfinite(o)):
@@ -309,7 +325,13 @@ def decode_observation(obs: np.ndarray, vehicle: VehicleParams, track_length_m: 
     idx = _OBS_INDEX
     grade = math.radians(vehicle.max_grade_deg)
     near = o[idx["distance_to_go_near"]]
-    to_go = near * NEAR_SCALE_M if abs(near) < 0.999 else o[idx["distance_to_go"]] * track_length_m
+    if near_shape == "tanh":
+        to_go = (math.atanh(near) * NEAR_SCALE_M if abs(near) < _NEAR_DECODE_MAX
+                 else o[idx["distance_to_go"]] * track_length_m)
+    elif near_shape == "clip":
+        to_go = near * NEAR_SCALE_M if abs(near) < 0.999 else o[idx["distance_to_go"]] * track_length_m
+    else:
+        raise ValueError(f"near_shape must be one of {', '.join(map(repr, NEAR_SHAPES))}, got {near_shape!r}")
     v_max = vehicle.max_speed_empty_mps
     return DecodedObservation(
         speed_mps=o[idx["speed"]] * v_max,

@@ -228,6 +228,9 @@ class UUOMTrackEnv(gym.Env):
     * v0 (rev. 17, no id change, default behaviour unchanged): opt-in config ``idle_clock_observation`` (17th entry
       ``idle_clock``). Reason (docs/rl.md §34): the ``stopped_short`` ending ran on a clock outside the observation,
       so a critic could not tell a crawl about to end from one that would not.
+    * v0 (rev. 18, no id change, default behaviour unchanged): opt-in config ``near_distance_observation="tanh"``
+      (entry 10 is ``tanh(distance / 30 m)`` instead of clipped at +-1). Reason (docs/rl.md §37): a SAC seed stopped
+      25-30 m before the station, where the clipped channel has its corner.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
@@ -291,7 +294,8 @@ class UUOMTrackEnv(gym.Env):
         self.true_mass_kg = self.vehicle.empty_mass_kg + cond.load_kg
         self.safety.reset(self.true_mass_kg, cond.running_resistance, cond.adhesion)
         self.observer.reset()
-        self.obs_builder = ObservationBuilder(self.vehicle, self.track.length_m, self.station_m)
+        self.obs_builder = ObservationBuilder(self.vehicle, self.track.length_m, self.station_m,
+                                              self.config["near_distance_observation"])
         self.obs_builder.reset(0.0)
         self.max_episode_s = (
             cfg["max_episode_s"]

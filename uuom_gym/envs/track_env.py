@@ -100,7 +100,8 @@ class UUOMTrackEnv(gym.Env):
     Entries 12-15 are functions of the others and of the previous step's speed, which a memoryless policy
     cannot form (see :mod:`uuom_gym.envs.observation`). With ``idle_clock_observation=True`` (opt-in) a 17th
     entry, ``idle_clock`` in ``[0, 1]``, is the time since the train last got 1 m further over ``idle_limit_s``:
-    how close the ``stopped_short`` ending is.
+    how close the ``stopped_short`` ending is. With ``near_distance_observation="tanh"`` (opt-in) entry 10 is
+    ``tanh(distance / 30 m)`` instead of clipped at +-1, with no corner at 30 m.
 
     ## Rewards
 

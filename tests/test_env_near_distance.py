@@ -23,7 +23,8 @@ NEAR = 10
 
 
 def _rollout(shape: str, seed: int = 5):
-    """Observations of one episode driven by the rule-based controller, and its summary."""
+    """One episode driven by the rule-based controller: its observations, the odometry distance to go at each,
+    the last info and the track length."""
     env = gym.make("UUOM-Track-v0", near_distance_observation=shape, **SHORT)
     ctrl = RuleBasedController(env.unwrapped.vehicle)
     obs, info = env.reset(seed=seed)

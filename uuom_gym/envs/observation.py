@@ -109,6 +109,14 @@ NEAR_SHAPES: tuple[str, ...] = ("clip", "tanh")
 which has the same slope at the station and none of the corner (docs/rl.md §37)."""
 _NEAR_DECODE_MAX = 0.99
 """Beyond this |value| of the tanh channel (79 m) the decoder trusts the coarse channel instead."""
+
+
+def _is_tanh_near_shape(near_shape: str) -> bool:
+    """Whether ``near_shape`` (one of :data:`NEAR_SHAPES`) is the tanh channel; ValueError naming it otherwise."""
+    if near_shape not in NEAR_SHAPES:
+        raise ValueError(f"near_shape must be one of {', '.join(map(repr, NEAR_SHAPES))}, got {near_shape!r}")
+    return near_shape == "tanh"
+
 SLIP_SCALE_MPS = 0.5
 STOP_MARGIN_DECEL_MPS2 = 0.3
 """Deceleration of the braking curve in ``stop_margin``."""
@@ -140,9 +148,7 @@ class ObservationBuilder:
     def __init__(
         self, vehicle: VehicleParams, track_length_m: float, station_m: float, near_shape: str = "clip"
     ) -> None:
-        if near_shape not in NEAR_SHAPES:
-            raise ValueError(f"near_shape must be one of {', '.join(map(repr, NEAR_SHAPES))}, got {near_shape!r}")
-        self.near_tanh = near_shape == "tanh"
+        self.near_tanh = _is_tanh_near_shape(near_shape)
         self.vehicle = vehicle
         self.track_length_m = float(track_length_m)
         self.station_m = float(station_m)
@@ -325,13 +331,11 @@ def decode_observation(
     idx = _OBS_INDEX
     grade = math.radians(vehicle.max_grade_deg)
     near = o[idx["distance_to_go_near"]]
-    if near_shape == "tanh":
+    if _is_tanh_near_shape(near_shape):
         to_go = (math.atanh(near) * NEAR_SCALE_M if abs(near) < _NEAR_DECODE_MAX
                  else o[idx["distance_to_go"]] * track_length_m)
-    elif near_shape == "clip":
-        to_go = near * NEAR_SCALE_M if abs(near) < 0.999 else o[idx["distance_to_go"]] * track_length_m
     else:
-        raise ValueError(f"near_shape must be one of {', '.join(map(repr, NEAR_SHAPES))}, got {near_shape!r}")
+        to_go = near * NEAR_SCALE_M if abs(near) < 0.999 else o[idx["distance_to_go"]] * track_length_m
     v_max = vehicle.max_speed_empty_mps
     return DecodedObservation(
         speed_mps=o[idx["speed"]] * v_max,

@@ -46,7 +46,10 @@ def draw_conditions(cfg: Mapping[str, Any], vehicle: VehicleParams, rng: np.rand
     from uuom_gym.sim.track import random_track, scenario_track
 
     lo, hi = cfg["load_fraction_range"]
-    load_draw = float(rng.uniform(lo, hi)) * vehicle.rated_load_kg
+    beta = cfg.get("load_fraction_beta")
+    # None keeps the one uniform draw, so every seed of earlier revisions draws the same episode.
+    fraction = float(rng.uniform(lo, hi)) if beta is None else lo + (hi - lo) * float(rng.beta(*beta))
+    load_draw = fraction * vehicle.rated_load_kg
     mu = float(rng.uniform(*cfg["running_resistance_range"]))
     wet = bool(rng.random() < cfg["wet_probability"])
     adhesion = float(rng.uniform(*(cfg["adhesion_wet_range"] if wet else cfg["adhesion_dry_range"])))

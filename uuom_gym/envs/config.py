@@ -61,6 +61,7 @@ def default_config() -> dict[str, Any]:
         # --- randomisation per reset(seed) ------------------------------------------------------------------
         "load_kg": None,
         "load_fraction_range": (0.0, 1.0),
+        "load_fraction_beta": None,
         "running_resistance_range": (0.015, 0.03),
         "wet_probability": 0.3,
         "adhesion_dry_range": (0.30, 0.40),
@@ -162,6 +163,8 @@ CONFIG_DOCS: dict[str, str] = {
     "ask for, lo < 0 < hi, piecewise linear with a = 0 asking for 0 (hold the speed; at rest, hold the brake).",
     "load_kg": "Fixed load (kg) instead of a random one; None draws it from load_fraction_range.",
     "load_fraction_range": "(low, high) load as a fraction of the rated load, drawn uniformly.",
+    "load_fraction_beta": "None (uniform in load_fraction_range) or (a, b): the fraction is low + (high - low) x "
+    "Beta(a, b) instead; a > b weights heavy trains (a training curriculum; docs/rl.md §38).",
     "running_resistance_range": "(low, high) true running-resistance coefficient mu, drawn uniformly.",
     "wet_probability": "Probability that the rail is wet/greasy (adhesion from adhesion_wet_range).",
     "adhesion_dry_range": "(low, high) drive-wheel adhesion coefficient on dry rail.",
@@ -209,6 +212,19 @@ def _check_range(cfg: dict[str, Any], key: str, lo: float, hi: float) -> None:
     if a < lo or b > hi:
         raise ConfigError(f"config key '{key}' must lie within [{lo}, {hi}], got {value!r}")
     cfg[key] = (a, b)
+
+
+def _check_beta(cfg: dict[str, Any], key: str) -> None:
+    value = cfg[key]
+    if value is None:
+        return
+    if (
+        not isinstance(value, (tuple, list))
+        or len(value) != 2
+        or not all(_is_number(v) and 0.0 < float(v) <= 100.0 for v in value)
+    ):
+        raise ConfigError(f"config key '{key}' must be None or an (a, b) pair of numbers in (0, 100], got {value!r}")
+    cfg[key] = (float(value[0]), float(value[1]))
 
 
 def _check_number(cfg: dict[str, Any], key: str, lo: float, hi: float = math.inf, *, open_lo: bool = False) -> None:
@@ -358,6 +374,7 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
     if cfg["load_kg"] is not None:
         _check_number(cfg, "load_kg", 0.0, 1e6)
     _check_range(cfg, "load_fraction_range", 0.0, 1.2)
+    _check_beta(cfg, "load_fraction_beta")
     _check_range(cfg, "running_resistance_range", 0.0, 0.5)
     _check_number(cfg, "wet_probability", 0.0, 1.0)
     _check_range(cfg, "adhesion_dry_range", 0.01, 1.0)

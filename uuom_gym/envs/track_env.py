@@ -119,7 +119,7 @@ class UUOMTrackEnv(gym.Env):
 
     At rest at ``s = 0`` (a level run-in) with service brake released. Each ``reset(seed)`` draws the track
     (length in ``track_length_m``, grades to ``max_grade_deg``, feasible for the load unless
-    ``allow_infeasible``), the load (0 to rated), running resistance, dry/wet adhesion, wheel wear, sensor
+    ``allow_infeasible``), the load (0 to rated; uniform, or Beta-weighted with ``load_fraction_beta``), running resistance, dry/wet adhesion, wheel wear, sensor
     noise and bias scales. ``scenario`` fixes the paper's runs instead.
 
     ## Episode End
@@ -232,6 +232,10 @@ class UUOMTrackEnv(gym.Env):
     * v0 (rev. 18, no id change, default behaviour unchanged): opt-in config ``near_distance_observation="tanh"``
       (entry 10 is ``tanh(distance / 30 m)`` instead of clipped at +-1). Reason (docs/rl.md §37): a SAC seed stopped
       25-30 m before the station, where the clipped channel has its corner.
+    * v0 (rev. 19, no id change, default behaviour unchanged): opt-in config ``load_fraction_beta=(a, b)`` draws
+      the load fraction from Beta(a, b) within ``load_fraction_range``, a training curriculum over the load
+      (docs/rl.md §38: every failure of the best bare-SAC recipe was a heavy train). None (default) keeps the
+      uniform draw, so every seed draws the same episode as before.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

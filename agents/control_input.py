@@ -89,6 +89,18 @@ def control_input_from_info(info: Mapping[str, Any], dt_s: float) -> ControlInpu
     )
 
 
+def observation_settings(env: Any) -> tuple[float, str] | None:
+    """The policy step (s) and the ``near_distance_observation`` shape that ``env``'s observations are built with.
+
+    Read from the env's config, so that a controller and the shield decode an observation the way the env built
+    it. None when the env has no UUOM config (the caller keeps its own settings).
+    """
+    cfg = getattr(getattr(env, "unwrapped", env), "config", None)
+    if not isinstance(cfg, Mapping) or "policy_hz" not in cfg:
+        return None
+    return 1.0 / float(cfg["policy_hz"]), str(cfg.get("near_distance_observation", "clip"))
+
+
 def control_input_from_obs(
     obs: np.ndarray, vehicle: VehicleParams, track_length_m: float, dt_s: float, near_shape: str = "clip"
 ) -> ControlInput:
@@ -116,4 +128,11 @@ def control_input_from_obs(
     )
 
 
-__all__ = ["ControlInput", "ControlInputError", "control_input_from_info", "control_input_from_obs", "info_value"]
+__all__ = [
+    "ControlInput",
+    "ControlInputError",
+    "control_input_from_info",
+    "control_input_from_obs",
+    "info_value",
+    "observation_settings",
+]

@@ -22,7 +22,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.control_input import ControlInput, control_input_from_obs
+from agents.control_input import ControlInput, control_input_from_obs, observation_settings
 from agents.controllers.base import force_to_command
 from agents.grade_check import GradeCrossCheck
 from agents.sliding_window import WindowMax
@@ -230,9 +230,7 @@ class ShieldWrapper(gym.Wrapper):
         self.shield = shield
         self._last_obs: np.ndarray | None = None
         self._track_length_m = 1.0
-        cfg = getattr(env.unwrapped, "config", {}) or {}
-        self._dt_s = 1.0 / float(cfg.get("policy_hz", 10.0))
-        self._near_shape = str(cfg.get("near_distance_observation", "clip"))
+        self._dt_s, self._near_shape = observation_settings(env) or (0.1, "clip")
 
     def reset(self, **kwargs: Any):
         obs, info = self.env.reset(**kwargs)

@@ -111,3 +111,19 @@ def _obs_with_near(value: float) -> np.ndarray:
     o[NEAR] = value
     o[9] = 0.2
     return o
+
+
+def test_controllers_and_shield_read_the_envs_decoding_settings():
+    """One reader of the env's policy step and near shape serves the controllers and the shield."""
+    from agents.control_input import observation_settings
+
+    env = gym.make("UUOM-Track-v0", policy_hz=5.0, physics_hz=100.0, near_distance_observation="tanh", **SHORT)
+    assert observation_settings(env) == (0.2, "tanh")
+    ctrl = RuleBasedController(env.unwrapped.vehicle)
+    _, info = env.reset(seed=1)
+    ctrl.reset(env, info)
+    assert (ctrl.dt_s, ctrl.near_shape) == (0.2, "tanh")
+    shielded = ShieldWrapper(env)
+    assert (shielded._dt_s, shielded._near_shape) == (0.2, "tanh")
+    assert observation_settings(gym.make("CartPole-v1")) is None
+    env.close()

@@ -7,7 +7,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from agents.control_input import ControlInput, control_input_from_info, control_input_from_obs
+from agents.control_input import ControlInput, control_input_from_info, control_input_from_obs, observation_settings
 from uuom_core.units import clamp
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
@@ -72,10 +72,9 @@ class SpeedController:
         """Start an episode (subclasses read what they may know from the env / the reset info)."""
         if env is not None:
             base = getattr(env, "unwrapped", env)
-            cfg = getattr(base, "config", None)
-            if isinstance(cfg, Mapping) and "policy_hz" in cfg:
-                self.dt_s = 1.0 / float(cfg["policy_hz"])
-                self.near_shape = str(cfg.get("near_distance_observation", "clip"))
+            settings = observation_settings(base)
+            if settings is not None:
+                self.dt_s, self.near_shape = settings
             track = getattr(base, "track", None)
             if track is not None:
                 self.track_length_m = float(track.length_m)

@@ -8,8 +8,11 @@ it stopped before the ±3 m window and did not creep on.
 
 from __future__ import annotations
 
+import math
 from collections import Counter
-from typing import Any, Iterable, Mapping
+from typing import Any, Iterable, Mapping, Sequence
+
+import numpy as np
 
 START_ZONE_M = 5.0
 """A train that stopped short within this distance of its start never drove off."""
@@ -54,4 +57,62 @@ def endings_markdown(counts: Mapping[str, Counter]) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["ENDINGS", "START_ZONE_M", "STATION_ZONE_M", "ending", "ending_counts", "endings_markdown"]
+MASS_BAND_EDGES_T: tuple[float, ...] = (20.0, 25.0, 28.0, 31.0, 33.0)
+"""Train-mass band edges (t) of :func:`mass_band_markdown`: the heavy trains, where bare RL fails (docs/rl.md §37-§38),
+get narrow bands."""
+
+
+def mass_band(mass_kg: float, edges_t: Sequence[float] = MASS_BAND_EDGES_T) -> str:
+    """The label of the band ``mass_kg`` falls in: ``"< 20 t"``, ``"20-25 t"``, ..., ``">= 33 t"``."""
+    t = float(mass_kg) / 1000.0
+    if t < edges_t[0]:
+        return f"< {edges_t[0]:g} t"
+    for lo, hi in zip(edges_t, edges_t[1:]):
+        if t < hi:
+            return f"{lo:g}-{hi:g} t"
+    return f">= {edges_t[-1]:g} t"
+
+
+def mass_band_markdown(rows: Iterable[Mapping[str, Any]], edges_t: Sequence[float] = MASS_BAND_EDGES_T) -> str:
+    """A markdown table: per controller (per training run in a pooled merge) and train-mass band, arrived / episodes
+    and the median trip time over the oracle's on the same track (the rows of controller ``oracle``, paired by
+    ``seed``; arrived episodes only, omitted without oracle rows)."""
+    rows = list(rows)
+    if any(float(edges_t[i]) >= float(edges_t[i + 1]) for i in range(len(edges_t) - 1)) or not edges_t:
+        raise ValueError(f"mass band edges must be increasing, got {list(edges_t)}")
+    oracle = {r["seed"]: float(r["trip_time_s"]) for r in rows
+              if str(r["controller"]) == "oracle" and r["termination"] == "arrived"}
+    labels = [mass_band(0.0, edges_t)] + [mass_band(e * 1000.0, edges_t) for e in edges_t]
+    cells: dict[str, dict[str, list]] = {}
+    for r in rows:
+        name = str(r.get("training_run") or r["controller"])
+        n_arrived_ratios = cells.setdefault(name, {}).setdefault(mass_band(r["mass_kg"], edges_t), [0, 0, []])
+        n_arrived_ratios[0] += 1
+        if r["termination"] == "arrived":
+            n_arrived_ratios[1] += 1
+            if r["seed"] in oracle and oracle[r["seed"]] > 0.0 and math.isfinite(float(r["trip_time_s"])):
+                n_arrived_ratios[2].append(float(r["trip_time_s"]) / oracle[r["seed"]])
+    lines = ["| controller | " + " | ".join(labels) + " |", "|---|" + "---:|" * len(labels)]
+    for name, bands in cells.items():
+        out = []
+        for label in labels:
+            n, arrived, ratios = bands.get(label, (0, 0, []))
+            text = f"{arrived}/{n}" if n else "-"
+            if ratios:
+                text += f", {float(np.median(ratios)):.2f}x"
+            out.append(text)
+        lines.append(f"| {name} | " + " | ".join(out) + " |")
+    return "\n".join(lines)
+
+
+__all__ = [
+    "ENDINGS",
+    "MASS_BAND_EDGES_T",
+    "START_ZONE_M",
+    "STATION_ZONE_M",
+    "ending",
+    "ending_counts",
+    "endings_markdown",
+    "mass_band",
+    "mass_band_markdown",
+]

@@ -1,10 +1,13 @@
 #!/usr/bin/env python
 """How the episodes of ``uuom-evaluate`` runs end, per controller (per training seed in a pooled merge): arrived,
 overspeed trip, overrun, stopped short at the start / near the station / elsewhere, ... (:mod:`agents.episode_endings`).
+``--by-mass`` adds arrivals per train-mass band, with the median trip time over the oracle's where the file holds
+oracle rows.
 
 Usage::
 
     python scripts/episode_endings.py results/rl/traction_exploration/eval/ppo_ceiling_5seeds/episodes.csv
+    python scripts/episode_endings.py results/rl/near_tanh/eval/pooled_6seeds/episodes.csv --by-mass
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from agents.episode_endings import ending_counts, endings_markdown
+from agents.episode_endings import MASS_BAND_EDGES_T, ending_counts, endings_markdown, mass_band_markdown
 from agents.evaluation_table import read_episodes
 
 
@@ -21,6 +24,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("episodes", type=Path, nargs="+", help="episodes.csv files of uuom-evaluate runs or merges")
     ap.add_argument("--controllers", nargs="*", default=None, help="only these (controller or training run names)")
+    ap.add_argument("--by-mass", action="store_true", help="also arrivals per train-mass band (and trip time / oracle)")
+    ap.add_argument("--mass-edges-t", type=float, nargs="+", default=list(MASS_BAND_EDGES_T),
+                    help="band edges in t for --by-mass (default: %(default)s)")
     args = ap.parse_args(argv)
     rows = []
     for path in args.episodes:
@@ -34,6 +40,17 @@ def main(argv: list[str] | None = None) -> int:
             ap.error(f"no episodes of {', '.join(missing)} (have: {', '.join(counts)})")
         counts = {c: counts[c] for c in args.controllers}
     print(endings_markdown(counts))
+    if args.by_mass:
+        keep = set(counts) | {"oracle"}
+        picked = [r for r in rows if str(r.get("training_run") or r["controller"]) in keep]
+        try:
+            table = mass_band_markdown(picked, args.mass_edges_t)
+        except ValueError as exc:
+            ap.error(str(exc))
+        if not args.controllers or "oracle" in args.controllers:
+            print("\n" + table)
+        else:
+            print("\n" + "\n".join(line for line in table.splitlines() if not line.startswith("| oracle |")))
     return 0
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from agents.episode_endings import ending, ending_counts, endings_markdown
+from agents.episode_endings import ending, ending_counts, endings_markdown, mass_band, mass_band_markdown
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -52,3 +52,41 @@ def test_the_script_counts_the_committed_five_seed_table_and_names_a_missing_con
     assert out[3].startswith(f"| {big3} | 100 | 0 | ") and out[3].endswith("| 100 |")  # never left the start
     bad = subprocess.run([*script, "--controllers", "nobody"], capture_output=True, text=True, cwd=ROOT)
     assert bad.returncode == 2 and "no episodes of nobody" in bad.stderr
+
+
+@pytest.mark.parametrize("mass_kg, want", [
+    (19_999.0, "< 20 t"), (20_000.0, "20-25 t"), (27_999.0, "25-28 t"), (32_999.0, "31-33 t"), (33_000.0, ">= 33 t"),
+])
+def test_a_train_falls_in_the_band_whose_lower_edge_it_reaches(mass_kg, want):
+    assert mass_band(mass_kg) == want
+
+
+def test_the_mass_band_table_counts_arrivals_and_pairs_trip_times_with_the_oracle_by_track():
+    def row(controller, seed, mass_t, term="arrived", time_s=100.0, run=""):
+        return dict(controller=controller, seed=seed, mass_kg=mass_t * 1000.0, termination=term, trip_time_s=time_s,
+                    training_run=run)
+
+    rows = [row("oracle", 1, 18, time_s=100.0), row("oracle", 2, 34, time_s=200.0), row("oracle", 3, 34, time_s=50.0),
+            row("pool", 1, 18, time_s=120.0, run="s0"), row("pool", 2, 34, time_s=300.0, run="s0"),
+            row("pool", 3, 34, "stopped_short", time_s=400.0, run="s0"),   # a failure: counted, no ratio
+            row("rule-based", 2, 34, time_s=260.0)]
+    lines = mass_band_markdown(rows).splitlines()
+    assert lines[0] == "| controller | < 20 t | 20-25 t | 25-28 t | 28-31 t | 31-33 t | >= 33 t |"
+    assert lines[3] == "| s0 | 1/1, 1.20x | - | - | - | - | 1/2, 1.50x |"
+    assert lines[4] == "| rule-based | - | - | - | - | - | 1/1, 1.30x |"
+    no_oracle = mass_band_markdown([r for r in rows if r["controller"] != "oracle"]).splitlines()
+    assert no_oracle[2] == "| s0 | 1/1 | - | - | - | - | 1/2 |"
+    with pytest.raises(ValueError, match="increasing"):
+        mass_band_markdown(rows, (25.0, 20.0))
+
+
+def test_the_script_splits_the_committed_tanh_seeds_by_train_mass():
+    csv_path = ROOT / "results" / "rl" / "near_tanh" / "eval" / "pooled_6seeds" / "episodes.csv"
+    script = [sys.executable, str(ROOT / "scripts" / "episode_endings.py"), str(csv_path), "--by-mass"]
+    out = subprocess.run([*script, "--controllers", "sac_bare_accel_tanh_s4_selected"], capture_output=True,
+                         text=True, check=True, cwd=ROOT).stdout.splitlines()
+    band_rows = [line for line in out if line.startswith("| sac_bare_accel_tanh_s4_selected |")]
+    assert len(band_rows) == 2 and band_rows[1].endswith("| 7/13, 2.00x | 9/14, 1.98x |")
+    assert not any(line.startswith("| oracle |") for line in out)  # the oracle only pairs the trip times
+    bad = subprocess.run([*script, "--mass-edges-t", "30", "20"], capture_output=True, text=True, cwd=ROOT)
+    assert bad.returncode == 2 and "increasing" in bad.stderr

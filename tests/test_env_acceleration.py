@@ -113,10 +113,11 @@ def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode
     if want["float_path"] != float_path_fingerprint():
         pytest.skip(f"the committed row was written with float32 path {want['float_path']}; this machine has "
                     f"{float_path_fingerprint()}: a policy's episode is reproducible only on the same path")
-    # Judged on the default tracks and reward: its training configuration (action mode, idle clock) without its
-    # 50-300 m tracks and its reward weights (a training-only term such as `caution` does not change the episode).
+    # Judged on the default tracks, loads and reward: its training configuration (action mode, idle clock) without
+    # its 50-300 m tracks, its load curriculum and its reward weights (a training-only term such as `caution` does
+    # not change the episode).
     run = root / "results" / "rl" / "policies" / name
-    judged = {k: v for k, v in trained_env_kwargs(run).items() if k not in ("track_length_m", "reward_weights")}
+    judged = {k: v for k, v in trained_env_kwargs(run).items() if k not in ("track_length_m", "load_fraction_beta", "reward_weights")}
     got = run_episode(Task(str(run), "dffrls-aekf", 100_000, json.dumps(judged)))
     assert (got["termination"], got["steps"]) == (want["termination"], want["steps"])
     assert got["trip_time_s"] == pytest.approx(want["trip_time_s"], abs=1e-9)

@@ -35,13 +35,17 @@ def ending(row: Mapping[str, Any]) -> str:
     return "stopped_short_at_station" if length_m - distance_m < STATION_ZONE_M else "stopped_short_elsewhere"
 
 
+def run_name(row: Mapping[str, Any]) -> str:
+    """The name a row is counted under: its ``training_run`` in a pooled merge (so each seed keeps its row), else its
+    ``controller``."""
+    return str(row.get("training_run") or row["controller"])
+
+
 def ending_counts(rows: Iterable[Mapping[str, Any]]) -> dict[str, Counter]:
-    """``{controller: Counter(ending)}`` in the order controllers first appear; the rows of a pooled merge count
-    under their own training run (``training_run``), so each seed keeps its row."""
+    """``{controller: Counter(ending)}`` in the order controllers first appear, each row under :func:`run_name`."""
     out: dict[str, Counter] = {}
     for row in rows:
-        name = str(row.get("training_run") or row["controller"])
-        out.setdefault(name, Counter())[ending(row)] += 1
+        out.setdefault(run_name(row), Counter())[ending(row)] += 1
     return out
 
 
@@ -73,19 +77,26 @@ def mass_band(mass_kg: float, edges_t: Sequence[float] = MASS_BAND_EDGES_T) -> s
     return f">= {edges_t[-1]:g} t"
 
 
-def mass_band_markdown(rows: Iterable[Mapping[str, Any]], edges_t: Sequence[float] = MASS_BAND_EDGES_T) -> str:
-    """A markdown table: per controller (per training run in a pooled merge) and train-mass band, arrived / episodes
-    and the median trip time over the oracle's on the same track (the rows of controller ``oracle``, paired by
-    ``seed``; arrived episodes only, omitted without oracle rows)."""
+def mass_band_markdown(
+    rows: Iterable[Mapping[str, Any]],
+    edges_t: Sequence[float] = MASS_BAND_EDGES_T,
+    names: Iterable[str] | None = None,
+) -> str:
+    """A markdown table: per controller (:func:`run_name`) and train-mass band, arrived / episodes and the median trip
+    time over the oracle's on the same track (the rows of controller ``oracle``, paired by ``seed``; arrived episodes
+    only, omitted without oracle rows). ``names``: only these table rows (the oracle still pairs the trip times)."""
     rows = list(rows)
-    if any(float(edges_t[i]) >= float(edges_t[i + 1]) for i in range(len(edges_t) - 1)) or not edges_t:
+    if not edges_t or any(float(edges_t[i]) >= float(edges_t[i + 1]) for i in range(len(edges_t) - 1)):
         raise ValueError(f"mass band edges must be increasing, got {list(edges_t)}")
+    shown = None if names is None else set(names)
     oracle = {r["seed"]: float(r["trip_time_s"]) for r in rows
               if str(r["controller"]) == "oracle" and r["termination"] == "arrived"}
     labels = [mass_band(0.0, edges_t)] + [mass_band(e * 1000.0, edges_t) for e in edges_t]
     cells: dict[str, dict[str, list]] = {}
     for r in rows:
-        name = str(r.get("training_run") or r["controller"])
+        name = run_name(r)
+        if shown is not None and name not in shown:
+            continue
         n_arrived_ratios = cells.setdefault(name, {}).setdefault(mass_band(r["mass_kg"], edges_t), [0, 0, []])
         n_arrived_ratios[0] += 1
         if r["termination"] == "arrived":
@@ -115,4 +126,5 @@ __all__ = [
     "endings_markdown",
     "mass_band",
     "mass_band_markdown",
+    "run_name",
 ]

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.episode_endings import run_name
 from agents.evaluation_table import pool_rows, read_episodes
 from agents.statistics import bootstrap_ci, iqm
 
@@ -39,14 +40,14 @@ def _is_rule_based(label: str) -> bool:
 
 def controller_point(rows: list[dict[str, Any]], oracle_time: dict[int, float]) -> dict[str, Any]:
     """Success, trips, cost rate and trip time / oracle (IQM) of one controller's episodes, with 95 % intervals."""
-    runs = sorted({str(r.get("training_run") or r["controller"]) for r in rows})
+    runs = sorted({run_name(r) for r in rows})
     tracks = sorted({int(r["seed"]) for r in rows})
     col = {s: j for j, s in enumerate(tracks)}
     cost = np.full((len(runs), len(tracks)), np.nan)
     steps = np.full_like(cost, np.nan)
     ratio = np.full_like(cost, np.nan)
     for r in rows:
-        i, j = runs.index(str(r.get("training_run") or r["controller"])), col[int(r["seed"])]
+        i, j = runs.index(run_name(r)), col[int(r["seed"])]
         cost[i, j], steps[i, j] = float(r["cost"]), float(r["steps"])
         if r["success"] and int(r["seed"]) in oracle_time:
             ratio[i, j] = float(r["trip_time_s"]) / oracle_time[int(r["seed"])]

@@ -41,16 +41,10 @@ def main(argv: list[str] | None = None) -> int:
         counts = {c: counts[c] for c in args.controllers}
     print(endings_markdown(counts))
     if args.by_mass:
-        keep = set(counts) | {"oracle"}
-        picked = [r for r in rows if str(r.get("training_run") or r["controller"]) in keep]
         try:
-            table = mass_band_markdown(picked, args.mass_edges_t)
+            print("\n" + mass_band_markdown(rows, args.mass_edges_t, names=counts))
         except ValueError as exc:
             ap.error(str(exc))
-        if not args.controllers or "oracle" in args.controllers:
-            print("\n" + table)
-        else:
-            print("\n" + "\n".join(line for line in table.splitlines() if not line.startswith("| oracle |")))
     return 0
 
 

@@ -118,7 +118,8 @@ def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode
     # its 50-300 m tracks, its load curriculum and its reward weights (a training-only term such as `caution` does
     # not change the episode).
     run = root / "results" / "rl" / "policies" / name
-    judged = {k: v for k, v in trained_env_kwargs(run).items() if k not in ("track_length_m", "load_fraction_beta", "reward_weights")}
+    training_only = ("track_length_m", "load_fraction_beta", "reward_weights")
+    judged = {k: v for k, v in trained_env_kwargs(run).items() if k not in training_only}
     got = run_episode(Task(str(run), "dffrls-aekf", 100_000, json.dumps(judged)))
     assert (got["termination"], got["steps"]) == (want["termination"], want["steps"])
     assert got["trip_time_s"] == pytest.approx(want["trip_time_s"], abs=1e-9)

@@ -64,3 +64,42 @@ def test_env_checkers_pass():
     check_env(env.unwrapped, skip_render_check=True)
     sb3_check_env(env.unwrapped, warn=False)
     env.close()
+
+
+def test_uniform_share_mixes_the_two_draws():
+    """``load_fraction_uniform_share``: a mixture that keeps light trains (docs/rl.md §39)."""
+    cfg = make_config({"load_fraction_beta": (2.0, 1.0), "load_fraction_uniform_share": 0.5})
+    vehicle = VehicleParams()
+    mixed = np.array([
+        draw_conditions(cfg, vehicle, np.random.default_rng(s)).load_kg / vehicle.rated_load_kg for s in range(2000)
+    ])
+    pure, uniform = _fractions((2.0, 1.0), n=2000), _fractions(None, n=2000)
+    # Density 0.5 + x: mean 7/12, P(x < 0.2) = 0.12 (Beta(2, 1): 0.04, uniform: 0.2).
+    assert mixed.mean() == pytest.approx(7 / 12, abs=0.03)
+    assert (pure < 0.2).mean() < (mixed < 0.2).mean() < (uniform < 0.2).mean()
+    assert (mixed < 0.2).mean() == pytest.approx(0.12, abs=0.025)
+    assert (mixed > 0.85).mean() > (uniform > 0.85).mean()
+
+
+def test_zero_share_is_the_pure_beta_draw():
+    """The default share 0 draws what rev. 19 drew (the shipped heavy-load policies' training episodes)."""
+    a = _fractions((2.0, 1.0), n=20)
+    cfg = make_config({"load_fraction_beta": (2.0, 1.0), "load_fraction_uniform_share": 0.0})
+    vehicle = VehicleParams()
+    b = np.array([draw_conditions(cfg, vehicle, np.random.default_rng(s)).load_kg / vehicle.rated_load_kg for s in range(20)])
+    np.testing.assert_array_equal(a, b)
+    want = [np.random.default_rng(s).beta(2.0, 1.0) for s in range(20)]
+    np.testing.assert_allclose(a, want, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"load_fraction_beta": (2.0, 1.0), "load_fraction_uniform_share": 1.5}, "load_fraction_uniform_share"),
+        ({"load_fraction_beta": (2.0, 1.0), "load_fraction_uniform_share": float("nan")}, "load_fraction_uniform_share"),
+        ({"load_fraction_uniform_share": 0.5}, "needs load_fraction_beta"),
+    ],
+)
+def test_bad_shares_are_named(kwargs, match):
+    with pytest.raises(ConfigError, match=match):
+        make_config(kwargs)

@@ -47,8 +47,13 @@ def draw_conditions(cfg: Mapping[str, Any], vehicle: VehicleParams, rng: np.rand
 
     lo, hi = cfg["load_fraction_range"]
     beta = cfg.get("load_fraction_beta")
-    # None keeps the one uniform draw, so every seed of earlier revisions draws the same episode.
-    fraction = float(rng.uniform(lo, hi)) if beta is None else lo + (hi - lo) * float(rng.beta(*beta))
+    # None keeps the one uniform draw, so every seed of earlier revisions draws the same episode; a share of 0
+    # keeps rev. 19's one Beta draw.
+    share = cfg.get("load_fraction_uniform_share", 0.0)
+    if beta is None or (share > 0.0 and rng.random() < share):
+        fraction = float(rng.uniform(lo, hi))
+    else:
+        fraction = lo + (hi - lo) * float(rng.beta(*beta))
     load_draw = fraction * vehicle.rated_load_kg
     mu = float(rng.uniform(*cfg["running_resistance_range"]))
     wet = bool(rng.random() < cfg["wet_probability"])

@@ -62,6 +62,7 @@ def default_config() -> dict[str, Any]:
         "load_kg": None,
         "load_fraction_range": (0.0, 1.0),
         "load_fraction_beta": None,
+        "load_fraction_uniform_share": 0.0,
         "running_resistance_range": (0.015, 0.03),
         "wet_probability": 0.3,
         "adhesion_dry_range": (0.30, 0.40),
@@ -165,6 +166,9 @@ CONFIG_DOCS: dict[str, str] = {
     "load_fraction_range": "(low, high) load as a fraction of the rated load, drawn uniformly.",
     "load_fraction_beta": "None (uniform in load_fraction_range) or (a, b): the fraction is low + (high - low) x "
     "Beta(a, b) instead; a > b weights heavy trains (a training curriculum; docs/rl.md §38).",
+    "load_fraction_uniform_share": "With load_fraction_beta set: the share of episodes whose fraction is still drawn "
+    "uniformly (a mixture of the two draws, which keeps the light trains that Beta(a, b) makes rare; docs/rl.md §39). "
+    "0 (default) is the pure Beta draw.",
     "running_resistance_range": "(low, high) true running-resistance coefficient mu, drawn uniformly.",
     "wet_probability": "Probability that the rail is wet/greasy (adhesion from adhesion_wet_range).",
     "adhesion_dry_range": "(low, high) drive-wheel adhesion coefficient on dry rail.",
@@ -375,6 +379,9 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
         _check_number(cfg, "load_kg", 0.0, 1e6)
     _check_range(cfg, "load_fraction_range", 0.0, 1.2)
     _check_beta(cfg, "load_fraction_beta")
+    _check_number(cfg, "load_fraction_uniform_share", 0.0, 1.0)
+    if cfg["load_fraction_uniform_share"] > 0.0 and cfg["load_fraction_beta"] is None:
+        raise ConfigError("config key 'load_fraction_uniform_share' needs load_fraction_beta: without it every draw is uniform")
     _check_range(cfg, "running_resistance_range", 0.0, 0.5)
     _check_number(cfg, "wet_probability", 0.0, 1.0)
     _check_range(cfg, "adhesion_dry_range", 0.01, 1.0)

@@ -236,6 +236,9 @@ class UUOMTrackEnv(gym.Env):
       the load fraction from Beta(a, b) within ``load_fraction_range``, a training curriculum over the load
       (docs/rl.md §38: every failure of the best bare-SAC recipe was a heavy train). None (default) keeps the
       uniform draw, so every seed draws the same episode as before.
+    * v0 (rev. 20, no id change, default behaviour unchanged): opt-in config ``load_fraction_uniform_share``: with
+      ``load_fraction_beta`` set, that share of the episodes still draws the load uniformly (docs/rl.md §39: the
+      Beta(2, 1) draw moved the failures from the heaviest trains to the lightest, which it had made rare).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -98,6 +98,7 @@ def test_default_mode_has_no_demand_in_info():
     ("sac_bare_accel_buffer_s3_selected", "replay_buffer/eval/pooled_6seeds"),
     ("sac_bare_accel_tanh_s2_selected", "near_tanh/eval/pooled_4seeds"),
     ("sac_bare_accel_heavy_s1_selected", "heavy_loads/eval/pooled_2seeds"),
+    ("sac_bare_accel_mixed_s1_selected", "mixed_loads/eval/pooled_2seeds"),
 ])
 def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode(name, episodes):
     import json
@@ -118,7 +119,7 @@ def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode
     # its 50-300 m tracks, its load curriculum and its reward weights (a training-only term such as `caution` does
     # not change the episode).
     run = root / "results" / "rl" / "policies" / name
-    training_only = ("track_length_m", "load_fraction_beta", "reward_weights")
+    training_only = ("track_length_m", "load_fraction_beta", "load_fraction_uniform_share", "reward_weights")
     judged = {k: v for k, v in trained_env_kwargs(run).items() if k not in training_only}
     got = run_episode(Task(str(run), "dffrls-aekf", 100_000, json.dumps(judged)))
     assert (got["termination"], got["steps"]) == (want["termination"], want["steps"])

@@ -14,9 +14,10 @@ from uuom_gym.envs.config import ConfigError, make_config
 from uuom_core.vehicle import VehicleParams
 
 
-def _fractions(beta, n: int = 400, load_range=(0.0, 1.0)) -> np.ndarray:
+def _fractions(beta, n: int = 400, load_range=(0.0, 1.0), share: float = 0.0) -> np.ndarray:
     """Load fractions of ``n`` condition draws, one generator per seed (as ``reset(seed=s)`` makes)."""
-    cfg = make_config({"load_fraction_beta": beta, "load_fraction_range": load_range})
+    cfg = make_config({"load_fraction_beta": beta, "load_fraction_range": load_range,
+                       "load_fraction_uniform_share": share})
     vehicle = VehicleParams()
     return np.array([
         draw_conditions(cfg, vehicle, np.random.default_rng(s)).load_kg / vehicle.rated_load_kg for s in range(n)
@@ -68,11 +69,7 @@ def test_env_checkers_pass():
 
 def test_uniform_share_mixes_the_two_draws():
     """``load_fraction_uniform_share``: a mixture that keeps light trains (docs/rl.md §39)."""
-    cfg = make_config({"load_fraction_beta": (2.0, 1.0), "load_fraction_uniform_share": 0.5})
-    vehicle = VehicleParams()
-    mixed = np.array([
-        draw_conditions(cfg, vehicle, np.random.default_rng(s)).load_kg / vehicle.rated_load_kg for s in range(2000)
-    ])
+    mixed = _fractions((2.0, 1.0), n=2000, share=0.5)
     pure, uniform = _fractions((2.0, 1.0), n=2000), _fractions(None, n=2000)
     # Density 0.5 + x: mean 7/12, P(x < 0.2) = 0.12 (Beta(2, 1): 0.04, uniform: 0.2).
     assert mixed.mean() == pytest.approx(7 / 12, abs=0.03)
@@ -83,11 +80,7 @@ def test_uniform_share_mixes_the_two_draws():
 
 def test_zero_share_is_the_pure_beta_draw():
     """The default share 0 draws what rev. 19 drew (the shipped heavy-load policies' training episodes)."""
-    a = _fractions((2.0, 1.0), n=20)
-    cfg = make_config({"load_fraction_beta": (2.0, 1.0), "load_fraction_uniform_share": 0.0})
-    vehicle = VehicleParams()
-    b = np.array([draw_conditions(cfg, vehicle, np.random.default_rng(s)).load_kg / vehicle.rated_load_kg for s in range(20)])
-    np.testing.assert_array_equal(a, b)
+    a = _fractions((2.0, 1.0), n=20, share=0.0)
     want = [np.random.default_rng(s).beta(2.0, 1.0) for s in range(20)]
     np.testing.assert_allclose(a, want, rtol=0, atol=1e-12)
 
@@ -96,7 +89,8 @@ def test_zero_share_is_the_pure_beta_draw():
     ("kwargs", "match"),
     [
         ({"load_fraction_beta": (2.0, 1.0), "load_fraction_uniform_share": 1.5}, "load_fraction_uniform_share"),
-        ({"load_fraction_beta": (2.0, 1.0), "load_fraction_uniform_share": float("nan")}, "load_fraction_uniform_share"),
+        ({"load_fraction_beta": (2.0, 1.0), "load_fraction_uniform_share": float("nan")},
+         "load_fraction_uniform_share"),
         ({"load_fraction_uniform_share": 0.5}, "needs load_fraction_beta"),
     ],
 )

@@ -381,7 +381,9 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
     _check_beta(cfg, "load_fraction_beta")
     _check_number(cfg, "load_fraction_uniform_share", 0.0, 1.0)
     if cfg["load_fraction_uniform_share"] > 0.0 and cfg["load_fraction_beta"] is None:
-        raise ConfigError("config key 'load_fraction_uniform_share' needs load_fraction_beta: without it every draw is uniform")
+        raise ConfigError(
+            "config key 'load_fraction_uniform_share' needs load_fraction_beta: without it every draw is uniform"
+        )
     _check_range(cfg, "running_resistance_range", 0.0, 0.5)
     _check_number(cfg, "wet_probability", 0.0, 1.0)
     _check_range(cfg, "adhesion_dry_range", 0.01, 1.0)

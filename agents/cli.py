@@ -90,6 +90,9 @@ def train_parser() -> argparse.ArgumentParser:
     ap.add_argument("--action-std-ceiling", type=float, nargs=3, default=None, metavar=("START", "END", "STEPS"),
                     help="PPO: cap the action std by a ceiling falling log-linearly from START to END over STEPS env "
                     "steps from the run's first step (docs/rl.md §27)")
+    ap.add_argument("--demo-episodes", type=int, default=0, metavar="N",
+                    help="off-policy algorithms, bare set-up: start the replay buffer with N episodes of the rule-based "
+                    "controller in the env's action space (agents/demonstrations.py; not counted in --timesteps)")
     return ap
 
 
@@ -107,6 +110,7 @@ def train_config(args: argparse.Namespace) -> Any:
         device=args.device, init_from=args.init_from,
         action_std_ceiling=tuple(args.action_std_ceiling)
         if args.action_std_ceiling is not None else None,
+        demo_episodes=args.demo_episodes,
     )
 
 

@@ -461,9 +461,17 @@ def check_config(config: EvalConfig) -> None:
             raise EvalConfigError(f"--merge {d}: no episodes.csv there")
     for obs in dict.fromkeys([*config.observers, config.plot_observer]):
         try:
-            gym.make(ENV_ID, observer=obs, **config.env_kwargs).close()
+            env = gym.make(ENV_ID, observer=obs, **config.env_kwargs)
         except (ValueError, TypeError) as exc:
             raise EvalConfigError(str(exc).splitlines()[0]) from None
+        mode = env.unwrapped.config["action_mode"]
+        env.close()
+    for spec in config.controllers:
+        name, _ = split_options(split_shield(spec)[0])
+        modes = getattr(CONTROLLERS.get(name), "action_modes", None)
+        if modes is not None and mode not in modes:
+            raise EvalConfigError(f"controller {spec!r} acts on action_mode {' or '.join(map(repr, modes))}; this "
+                                  f"evaluation's env has action_mode {mode!r} (set it with --env-kwargs)")
 
 
 def _env_shifts(config: EvalConfig) -> dict[str, list[str]]:

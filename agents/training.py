@@ -63,7 +63,9 @@ class TrainConfig:
     stay as it was trained. ``action_std_ceiling`` ``(start, end, steps)``: PPO's action standard deviation may not
     exceed a ceiling falling log-linearly from ``start`` to ``end`` over ``steps`` env steps from this run's first
     step, and ``end`` after (:class:`agents.training_callbacks.ActionStdCeiling`): the mean action must take over what
-    the exploration noise did (docs/rl.md §27).
+    the exploration noise did (docs/rl.md §27). ``demo_episodes``: an off-policy learner's replay buffer starts with
+    that many episodes of the rule-based controller in the env's action space (:mod:`agents.demonstrations`; bare
+    set-up only, a new run only); the demonstrator's steps are not counted in ``timesteps``.
     """
 
     algo: str = "ppo"
@@ -90,6 +92,7 @@ class TrainConfig:
     device: str = "cpu"
     init_from: Path | None = None
     action_std_ceiling: tuple[float, float, int] | None = None
+    demo_episodes: int = 0
 
 
 # --- environments --------------------------------------------------------------------------------------------
@@ -224,6 +227,8 @@ def plan(config: TrainConfig) -> _Plan:
             raise TrainConfigError(f"action_std_ceiling {exc}") from None
     if not isinstance(c.env_kwargs, dict):
         raise TrainConfigError(f"env_kwargs must be a JSON object, got {c.env_kwargs!r}")
+    if isinstance(c.demo_episodes, bool) or not isinstance(c.demo_episodes, int) or c.demo_episodes < 0:
+        raise TrainConfigError(f"demo_episodes must be a whole number >= 0, got {c.demo_episodes!r}")
     try:
         env_kwargs = {**env_kwargs_of(c.env_id), **c.env_kwargs}
     except ValueError as exc:
@@ -256,6 +261,8 @@ def plan(config: TrainConfig) -> _Plan:
         off_policy = ", ".join(a for a in ALGOS if issubclass(algo_class(a), OffPolicyAlgorithm))
         raise TrainConfigError(f"hyperparameters noise_type / noise_std: {c.algo} takes no action noise ({off_policy})")
     _check_env(c.observer, env_kwargs, shield, residual, margin_schedule)
+    if c.demo_episodes:
+        _check_demonstrations(c, env_kwargs, shield, residual, margin_schedule)
     run_dir = Path(c.run_dir) if c.run_dir is not None else Path(c.log_dir) / run_dir_name(
         c.algo, c.observer, c.seed, shield, residual, margin_schedule is not None)
     return _Plan(total, n_envs, shield, residual, policy, norm_kwargs, hp, run_dir, env_kwargs, margin_schedule)
@@ -277,6 +284,30 @@ def _check_env(observer: str, env_kwargs: dict[str, Any], shield: bool, residual
     except (ValueError, TypeError, KeyError) as exc:
         raise TrainConfigError(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
     env.close()
+
+
+def _check_demonstrations(c: TrainConfig, env_kwargs: dict[str, Any], shield: bool, residual: float,
+                          margin_schedule: tuple[float, float] | None) -> None:
+    from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+
+    if not issubclass(algo_class(c.algo), OffPolicyAlgorithm):
+        raise TrainConfigError(f"demo_episodes: {c.algo} has no replay buffer (an off-policy algorithm: "
+                               f"{', '.join(a for a in ALGOS if issubclass(algo_class(a), OffPolicyAlgorithm))})")
+    if shield or residual > 0 or margin_schedule is not None:
+        raise TrainConfigError("demo_episodes: the demonstrator acts in the bare env's action space; pass --residual 0 "
+                               "--no-shield (and no margin schedule)")
+    if c.init_from is not None:
+        raise TrainConfigError("demo_episodes: a run started from init_from keeps its source's learner; seed the "
+                               "buffer of a new run only")
+    from agents.demonstrations import demonstrator_for
+
+    env = make_env_fn(c.observer, 0, False, env_kwargs)()
+    try:
+        demonstrator_for(env)
+    except ValueError as exc:
+        raise TrainConfigError(str(exc)) from None
+    finally:
+        env.close()
 
 
 # --- training ------------------------------------------------------------------------------------------------
@@ -309,6 +340,7 @@ def train(config: TrainConfig) -> Path:
         "timesteps": p.total, "shield": p.shield, "residual": p.residual, "env_kwargs": p.env_kwargs,
         **({"margin_schedule": list(p.margin_schedule)} if p.margin_schedule is not None else {}),
         "hyperparams": {k: repr(v) for k, v in p.hp.items()}, "normalize": p.normalize,
+        **({"demo_episodes": config.demo_episodes} if config.demo_episodes else {}),
     }
     init = None
     if config.init_from is not None:
@@ -446,6 +478,15 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
                 raise TrainConfigError(f"{config.algo} rejects the hyperparameters: {exc}") from None
         run_dir.mkdir(parents=True, exist_ok=True)
         atomic_write_text(run_dir / "config.json", json.dumps(record, indent=2))
+        if config.demo_episodes and start is None:
+            from agents.demonstrations import seed_replay_buffer
+
+            t_demo = time.time()
+            demo = seed_replay_buffer(model, config.observer, p.env_kwargs, config.demo_episodes, config.seed)
+            demo["seconds"] = round(time.time() - t_demo, 1)
+            atomic_write_text(run_dir / "demonstrations.json", json.dumps(demo, indent=2))
+            print(f"replay buffer seeded: {demo['episodes']} demonstrator episodes ({demo['arrived']} arrived), "
+                  f"{demo['transitions']} transitions in {demo['seconds']} s", flush=True)
         model.tensorboard_log = str(run_dir / "tb")
         eval_cb = None
         if config.eval_freq > 0:

@@ -20,14 +20,18 @@ environment's ``info`` dict, so a controller drives ``UUOM-Track-v0`` like a pol
   ``- k sigma``) with a margin, and brakes for the station on a pessimistic braking curve. How much speed it can
   use is therefore decided by how good the estimator is.
 
+- :class:`AccelerationRuleBased` (``rule-based-accel``) is the rule-based controller for the opt-in acceleration
+  action (``action_mode="acceleration"``): its reference speed, asked of the env's tracker as an acceleration.
+
 Modules: :mod:`~agents.controllers.base` (base class, force conversion, station stop, full throttle),
-:mod:`~agents.controllers.oracle`, :mod:`~agents.controllers.rule_based`. The controllers' input type lives in
+:mod:`~agents.controllers.oracle`, :mod:`~agents.controllers.rule_based`, :mod:`~agents.controllers.acceleration`. The controllers' input type lives in
 :mod:`agents.control_input`, the model-free grade in :mod:`agents.grade_check`; both are re-exported here.
 """
 
 from __future__ import annotations
 
 from agents.control_input import ControlInput, ControlInputError, control_input_from_info, control_input_from_obs
+from agents.controllers.acceleration import AccelerationRuleBased
 from agents.controllers.base import FullThrottleController, SpeedController, force_to_command
 from agents.controllers.oracle import OracleController
 from agents.controllers.rule_based import RuleBasedController
@@ -37,11 +41,13 @@ CONTROLLERS: dict[str, type[SpeedController]] = {
     "oracle": OracleController,
     "rule-based": RuleBasedController,
     "full-throttle": FullThrottleController,
+    "rule-based-accel": AccelerationRuleBased,
 }
 """Reference controllers by name (``scripts/evaluate.py --controllers``)."""
 
 
 __all__ = [
+    "AccelerationRuleBased",
     "CONTROLLERS",
     "ControlInput",
     "ControlInputError",

@@ -61,6 +61,8 @@ class SpeedController:
     """Base class: ``reset(env, info)`` at the start of an episode, ``act(obs, info) -> ndarray (1,)``."""
 
     name = "controller"
+    action_modes: tuple[str, ...] | None = None
+    """The env ``action_mode`` values whose action this controller computes (None: it is not checked)."""
 
     def __init__(self, vehicle: VehicleParams, dt_s: float = 0.1) -> None:
         self.vehicle = vehicle
@@ -82,13 +84,15 @@ class SpeedController:
     def command(self, x: ControlInput) -> float:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def control_input(self, obs: Any, info: Mapping[str, Any]) -> ControlInput:
+        """What the controller knows now: decoded from the observation (preferred: what an agent sees) or the info."""
+        if obs is not None and self.track_length_m is not None:
+            return control_input_from_obs(obs, self.vehicle, self.track_length_m, self.dt_s, self.near_shape)
+        return control_input_from_info(info, self.dt_s)
+
     def act(self, obs: Any, info: Mapping[str, Any]) -> np.ndarray:
         """Action for ``env.step`` from the latest observation (preferred: what an agent sees) or the info."""
-        if obs is not None and self.track_length_m is not None:
-            x = control_input_from_obs(obs, self.vehicle, self.track_length_m, self.dt_s, self.near_shape)
-        else:
-            x = control_input_from_info(info, self.dt_s)
-        cmd = self.command(x)
+        cmd = self.command(self.control_input(obs, info))
         if not math.isfinite(cmd):  # defensive: never send NaN to the plant
             cmd = -1.0
         return np.array([cmd], dtype=np.float32)

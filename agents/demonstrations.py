@@ -23,20 +23,23 @@ DEMO_SEED_OFFSET = 5_000_000
 """Demonstration tracks of training seed ``s`` are seeds ``DEMO_SEED_OFFSET + 1000 s + i``."""
 
 
-def demonstrator_for(env: Any) -> Any:
-    """The reference controller that acts in ``env``'s action space: the rule-based controller (traction command)
-    or its acceleration-demand adapter. The speed-target action has none (its tracker already is the reference's
-    force law; a target speed is not what the rule-based controller computes)."""
-    from agents.controllers import RuleBasedController
-    from agents.controllers.acceleration import AccelerationRuleBased
+def demonstrator_class(action_mode: str) -> type:
+    """The reference controller that acts in this action space: the rule-based controller (traction command) or its
+    acceleration-demand adapter. The speed-target action has none (its tracker already is the reference's force
+    law; a target speed is not what the rule-based controller computes)."""
+    from agents.controllers import AccelerationRuleBased, RuleBasedController
 
+    if action_mode == "command":
+        return RuleBasedController
+    if action_mode == "acceleration":
+        return AccelerationRuleBased
+    raise ValueError(f"demonstrations: no demonstrator for action_mode={action_mode!r} (command or acceleration)")
+
+
+def demonstrator_for(env: Any) -> Any:
+    """A new :func:`demonstrator_class` controller for ``env``'s action space and vehicle."""
     base = env.unwrapped
-    mode = base.config["action_mode"]
-    if mode == "command":
-        return RuleBasedController(base.vehicle)
-    if mode == "acceleration":
-        return AccelerationRuleBased(base.vehicle)
-    raise ValueError(f"demonstrations: no demonstrator for action_mode={mode!r} (command or acceleration)")
+    return demonstrator_class(base.config["action_mode"])(base.vehicle)
 
 
 def seed_replay_buffer(model: Any, observer: str, env_kwargs: dict[str, Any], n_episodes: int,
@@ -100,4 +103,4 @@ def seed_replay_buffer(model: Any, observer: str, env_kwargs: dict[str, Any], n_
     return {"episodes": ended, "arrived": arrived, "transitions": transitions}
 
 
-__all__ = ["DEMO_SEED_OFFSET", "demonstrator_for", "seed_replay_buffer"]
+__all__ = ["DEMO_SEED_OFFSET", "demonstrator_class", "demonstrator_for", "seed_replay_buffer"]

@@ -255,14 +255,12 @@ def plan(config: TrainConfig) -> _Plan:
     for key in _ZOO_ONLY_KEYS:
         hp.pop(key, None)
     resolve_schedules(hp, 0, 1)  # a malformed lin_<value> fails here, before any env starts
-    from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
-
-    if action_noise(dict(hp), 1) is not None and not issubclass(algo_class(c.algo), OffPolicyAlgorithm):
-        off_policy = ", ".join(a for a in ALGOS if issubclass(algo_class(a), OffPolicyAlgorithm))
-        raise TrainConfigError(f"hyperparameters noise_type / noise_std: {c.algo} takes no action noise ({off_policy})")
-    _check_env(c.observer, env_kwargs, shield, residual, margin_schedule)
+    if action_noise(dict(hp), 1) is not None and c.algo not in _off_policy_algos():
+        raise TrainConfigError(f"hyperparameters noise_type / noise_std: {c.algo} takes no action noise "
+                               f"({', '.join(_off_policy_algos())})")
+    action_mode = _check_env(c.observer, env_kwargs, shield, residual, margin_schedule)
     if c.demo_episodes:
-        _check_demonstrations(c, env_kwargs, shield, residual, margin_schedule)
+        _check_demonstrations(c, action_mode, shield, residual, margin_schedule)
     run_dir = Path(c.run_dir) if c.run_dir is not None else Path(c.log_dir) / run_dir_name(
         c.algo, c.observer, c.seed, shield, residual, margin_schedule is not None)
     return _Plan(total, n_envs, shield, residual, policy, norm_kwargs, hp, run_dir, env_kwargs, margin_schedule)
@@ -277,37 +275,41 @@ def _whole(v: Any, name: str) -> int:
 
 
 def _check_env(observer: str, env_kwargs: dict[str, Any], shield: bool, residual: float,
-               margin_schedule: tuple[float, float] | None = None) -> None:
-    """Build the env once in this process: a bad observer or env option fails here, not in every worker."""
+               margin_schedule: tuple[float, float] | None = None) -> str:
+    """Build the env once in this process: a bad observer or env option fails here, not in every worker. Returns its
+    ``action_mode``."""
     try:
         env = make_env_fn(observer, 0, shield, env_kwargs, residual, margin_schedule)()
     except (ValueError, TypeError, KeyError) as exc:
         raise TrainConfigError(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
+    mode = env.unwrapped.config["action_mode"]
     env.close()
+    return mode
 
 
-def _check_demonstrations(c: TrainConfig, env_kwargs: dict[str, Any], shield: bool, residual: float,
-                          margin_schedule: tuple[float, float] | None) -> None:
+def _off_policy_algos() -> list[str]:
     from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 
-    if not issubclass(algo_class(c.algo), OffPolicyAlgorithm):
+    return [a for a in ALGOS if issubclass(algo_class(a), OffPolicyAlgorithm)]
+
+
+def _check_demonstrations(c: TrainConfig, action_mode: str, shield: bool, residual: float,
+                          margin_schedule: tuple[float, float] | None) -> None:
+    if c.algo not in _off_policy_algos():
         raise TrainConfigError(f"demo_episodes: {c.algo} has no replay buffer (an off-policy algorithm: "
-                               f"{', '.join(a for a in ALGOS if issubclass(algo_class(a), OffPolicyAlgorithm))})")
+                               f"{', '.join(_off_policy_algos())})")
     if shield or residual > 0 or margin_schedule is not None:
         raise TrainConfigError("demo_episodes: the demonstrator acts in the bare env's action space; pass --residual 0 "
                                "--no-shield (and no margin schedule)")
     if c.init_from is not None:
         raise TrainConfigError("demo_episodes: a run started from init_from keeps its source's learner; seed the "
                                "buffer of a new run only")
-    from agents.demonstrations import demonstrator_for
+    from agents.demonstrations import demonstrator_class
 
-    env = make_env_fn(c.observer, 0, False, env_kwargs)()
     try:
-        demonstrator_for(env)
+        demonstrator_class(action_mode)
     except ValueError as exc:
         raise TrainConfigError(str(exc)) from None
-    finally:
-        env.close()
 
 
 # --- training ------------------------------------------------------------------------------------------------

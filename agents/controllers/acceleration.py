@@ -50,22 +50,13 @@ class AccelerationRuleBased(RuleBasedController):
                  accel_span_mps2: tuple[float, float] = (-0.5, 0.5), **kwargs: Any) -> None:
         super().__init__(vehicle, dt_s, **kwargs)
         self.accel_span_mps2 = (float(accel_span_mps2[0]), float(accel_span_mps2[1]))
-        self._target_mps = 0.0
 
     def reset(self, env: Any = None, info: Mapping[str, Any] | None = None) -> None:
-        super().reset(env, info)
-        self._target_mps = 0.0
-        base = getattr(env, "unwrapped", env)
-        config = getattr(base, "config", None)
-        if isinstance(config, Mapping):
-            if config.get("action_mode") != "acceleration":
-                raise ValueError(
-                    f"controller {self.name!r} drives action_mode='acceleration', the env has "
-                    f"action_mode={config.get('action_mode')!r}"
-                )
-            span = config.get("accel_demand_mps2")
-            if span is not None:
-                self.accel_span_mps2 = (float(span[0]), float(span[1]))
+        super().reset(env, info)  # refuses an env with another action_mode
+        config = getattr(getattr(env, "unwrapped", env), "config", None)
+        span = config.get("accel_demand_mps2") if isinstance(config, Mapping) else None
+        if span is not None:
+            self.accel_span_mps2 = (float(span[0]), float(span[1]))
 
     def demand_mps2(self, x: ControlInput, target_mps: float) -> float:
         """Acceleration that moves the tracker's target to the reference speed in one step."""

@@ -74,6 +74,12 @@ class SpeedController:
         """Start an episode (subclasses read what they may know from the env / the reset info)."""
         if env is not None:
             base = getattr(env, "unwrapped", env)
+            config = getattr(base, "config", None)
+            if self.action_modes is not None and isinstance(config, Mapping) \
+                    and config.get("action_mode") not in self.action_modes:
+                raise ValueError(f"controller {self.name!r} acts on action_mode="
+                                 f"{' or '.join(map(repr, self.action_modes))}, the env has "
+                                 f"action_mode={config.get('action_mode')!r}")
             settings = observation_settings(base)
             if settings is not None:
                 self.dt_s, self.near_shape = settings

@@ -93,6 +93,10 @@ def train_parser() -> argparse.ArgumentParser:
     ap.add_argument("--demo-episodes", type=int, default=0, metavar="N",
                     help="off-policy algorithms, bare set-up: start the replay buffer with N episodes of the rule-based "
                     "controller in the env's action space (agents/demonstrations.py; not counted in --timesteps)")
+    ap.add_argument("--demo-bc", type=float, default=0.0, metavar="W",
+                    help="SAC with --demo-episodes: also hold the policy to the demonstrations where its critic rates "
+                    "them above its own action, a Q-filtered behaviour-cloning term of weight W (agents/demo_bc.py; "
+                    "0.4 matches TD3+BC's alpha 2.5; 0: off)")
     return ap
 
 
@@ -110,7 +114,7 @@ def train_config(args: argparse.Namespace) -> Any:
         device=args.device, init_from=args.init_from,
         action_std_ceiling=tuple(args.action_std_ceiling)
         if args.action_std_ceiling is not None else None,
-        demo_episodes=args.demo_episodes,
+        demo_episodes=args.demo_episodes, demo_bc_weight=args.demo_bc,
     )
 
 

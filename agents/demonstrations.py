@@ -43,8 +43,12 @@ def demonstrator_for(env: Any) -> Any:
 
 
 def seed_replay_buffer(model: Any, observer: str, env_kwargs: dict[str, Any], n_episodes: int,
-                       seed: int) -> dict[str, int]:
+                       seed: int, into_replay: bool = True) -> dict[str, int]:
     """Add ``n_episodes`` demonstrator episodes to ``model.replay_buffer``; return what was added.
+
+    A model with a ``demo_buffer`` (:class:`agents.demo_bc.SACWithDemoBC`) gets them there too. ``into_replay=False``
+    fills only that buffer and leaves the normaliser alone: a resumed run rebuilds the demonstrations it does not
+    save (the same tracks, so the same transitions), its replay buffer and statistics already holding them.
 
     One env per buffer slot (``replay_buffer.n_envs``), stepped together as a vector env would be: an episode that
     ends is followed by the next track in that slot, its last ``next_obs`` the terminal observation, a time-limit
@@ -58,6 +62,9 @@ def seed_replay_buffer(model: Any, observer: str, env_kwargs: dict[str, Any], n_
     from agents.hyperparameters import ENV_ID
 
     buf = model.replay_buffer
+    demo_buf = getattr(model, "demo_buffer", None)
+    if not into_replay and demo_buf is None:
+        raise ValueError("seed_replay_buffer: into_replay=False needs a model with a demo_buffer")
     n_slots = int(buf.n_envs)
     envs = [gym.make(ENV_ID, observer=observer, **env_kwargs) for _ in range(n_slots)]
     ctrls = [demonstrator_for(e) for e in envs]
@@ -91,10 +98,14 @@ def seed_replay_buffer(model: Any, observer: str, env_kwargs: dict[str, Any], n_
                 new_obs.append(o2)
                 new_infos.append(info)
             obs_arr = np.stack(obs)
-            buf.add(obs_arr, np.stack(next_obs), actions, np.asarray(rewards, dtype=np.float32),
-                    np.asarray(dones), step_infos)
-            if norm is not None and norm.norm_obs:
-                norm.obs_rms.update(obs_arr)
+            step = (obs_arr, np.stack(next_obs), actions, np.asarray(rewards, dtype=np.float32), np.asarray(dones),
+                    step_infos)
+            if into_replay:
+                buf.add(*step)
+                if norm is not None and norm.norm_obs:
+                    norm.obs_rms.update(obs_arr)
+            if demo_buf is not None:
+                demo_buf.add(*step)
             transitions += n_slots
             obs, infos = new_obs, new_infos
     finally:

@@ -19,6 +19,7 @@ starts (:class:`TrainConfigError`, one line).
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import signal
 import sys
@@ -65,7 +66,10 @@ class TrainConfig:
     step, and ``end`` after (:class:`agents.training_callbacks.ActionStdCeiling`): the mean action must take over what
     the exploration noise did (docs/rl.md §27). ``demo_episodes``: an off-policy learner's replay buffer starts with
     that many episodes of the rule-based controller in the env's action space (:mod:`agents.demonstrations`; bare
-    set-up only, a new run only); the demonstrator's steps are not counted in ``timesteps``.
+    set-up only, a new run only); the demonstrator's steps are not counted in ``timesteps``. ``demo_bc_weight`` > 0
+    (SAC with ``demo_episodes`` only): the learner is :class:`agents.demo_bc.SACWithDemoBC`, which also holds the
+    policy to the demonstrations where its critic rates them above its own action (a Q-filtered behaviour-cloning
+    term of that weight); the saved policy is a plain SAC policy.
     """
 
     algo: str = "ppo"
@@ -93,6 +97,7 @@ class TrainConfig:
     init_from: Path | None = None
     action_std_ceiling: tuple[float, float, int] | None = None
     demo_episodes: int = 0
+    demo_bc_weight: float = 0.0
 
 
 # --- environments --------------------------------------------------------------------------------------------
@@ -229,6 +234,13 @@ def plan(config: TrainConfig) -> _Plan:
         raise TrainConfigError(f"env_kwargs must be a JSON object, got {c.env_kwargs!r}")
     if isinstance(c.demo_episodes, bool) or not isinstance(c.demo_episodes, int) or c.demo_episodes < 0:
         raise TrainConfigError(f"demo_episodes must be a whole number >= 0, got {c.demo_episodes!r}")
+    if (isinstance(c.demo_bc_weight, bool) or not isinstance(c.demo_bc_weight, (int, float))
+            or not math.isfinite(c.demo_bc_weight) or c.demo_bc_weight < 0):
+        raise TrainConfigError(f"demo_bc_weight must be a finite number >= 0, got {c.demo_bc_weight!r}")
+    if c.demo_bc_weight > 0 and (c.algo != "sac" or not c.demo_episodes):
+        raise TrainConfigError("demo_bc_weight: the behaviour-cloning term is SAC's (--algo sac) on its "
+                               f"demonstrations (--demo-episodes N > 0); got --algo {c.algo}, "
+                               f"--demo-episodes {c.demo_episodes}")
     try:
         env_kwargs = {**env_kwargs_of(c.env_id), **c.env_kwargs}
     except ValueError as exc:
@@ -343,6 +355,7 @@ def train(config: TrainConfig) -> Path:
         **({"margin_schedule": list(p.margin_schedule)} if p.margin_schedule is not None else {}),
         "hyperparams": {k: repr(v) for k, v in p.hp.items()}, "normalize": p.normalize,
         **({"demo_episodes": config.demo_episodes} if config.demo_episodes else {}),
+        **({"demo_bc_weight": float(config.demo_bc_weight)} if config.demo_bc_weight else {}),
     }
     init = None
     if config.init_from is not None:
@@ -430,6 +443,9 @@ def _check_same_run(run_dir: Path, record: dict[str, Any]) -> None:
     if not path.exists():
         return
     old = json.loads(path.read_text())
+    for k in ("demo_episodes", "demo_bc_weight"):  # absent from a record when off: off is a change too
+        if k in old and k not in record:
+            raise TrainConfigError(f"--resume with a different {k} ({old[k]!r} in {path}, now off)")
     # The step budget may grow on resume; everything that defines the task and the learner must not change.
     diff = [k for k in record if k not in ("timesteps",) and k in old and old[k] != json.loads(json.dumps(record[k]))]
     if diff:
@@ -448,6 +464,10 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
     torch.set_num_threads(1)  # the env processes need the cores; small MLPs gain nothing from threads
     run_dir, ckpt_dir = p.run_dir, p.run_dir / "checkpoints"
     cls = algo_class(config.algo)
+    if config.demo_bc_weight:
+        from agents.demo_bc import SACWithDemoBC
+
+        cls = SACWithDemoBC
     venv = make_vec_env(config.observer, config.seed, p.n_envs, p.shield, p.env_kwargs, config.subproc, p.residual,
                         p.margin_schedule)
     eval_venv = None
@@ -475,16 +495,19 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
                 venv = VecNormalize(venv, **p.normalize)
             try:
                 model = cls(p.policy, venv, seed=config.seed, device=config.device, verbose=0,
-                            **_model_kwargs(p.hp, 0, p.total))
+                            **_model_kwargs(p.hp, 0, p.total),
+                            **({"bc_weight": float(config.demo_bc_weight)} if config.demo_bc_weight else {}))
             except (TypeError, ValueError, AssertionError) as exc:
                 raise TrainConfigError(f"{config.algo} rejects the hyperparameters: {exc}") from None
         run_dir.mkdir(parents=True, exist_ok=True)
         atomic_write_text(run_dir / "config.json", json.dumps(record, indent=2))
-        if config.demo_episodes and start is None:
+        if config.demo_episodes and (start is None or config.demo_bc_weight):
             from agents.demonstrations import seed_replay_buffer
 
             t_demo = time.time()
-            demo = seed_replay_buffer(model, config.observer, p.env_kwargs, config.demo_episodes, config.seed)
+            # a resumed BC run rebuilds the demonstration buffer it does not save; its replay buffer has them
+            demo = seed_replay_buffer(model, config.observer, p.env_kwargs, config.demo_episodes, config.seed,
+                                      into_replay=start is None)
             demo["seconds"] = round(time.time() - t_demo, 1)
             atomic_write_text(run_dir / "demonstrations.json", json.dumps(demo, indent=2))
             print(f"replay buffer seeded: {demo['episodes']} demonstrator episodes ({demo['arrived']} arrived), "

@@ -100,6 +100,8 @@ def test_default_mode_has_no_demand_in_info():
     ("sac_bare_accel_heavy_s1_selected", "heavy_loads/eval/pooled_2seeds"),
     ("sac_bare_accel_mixed_s1_selected", "mixed_loads/eval/pooled_2seeds"),
     ("sac_bare_accel_demo_s0_selected", "demonstrations/eval/pooled_4seeds"),
+    ("sac_bare_accel_demo_s4_selected", "demonstrations/eval/pooled_6seeds"),
+    ("sac_bare_accel_demo_bc_s2_selected", "demo_bc/eval/pooled"),
 ])
 def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode(name, episodes):
     import json

@@ -105,6 +105,7 @@ def test_default_mode_has_no_demand_in_info():
     ("sac_bare_accel_demo_bc_s3_selected", "demo_bc/eval/pooled_4seeds"),
     # Not an acceleration policy: bare SAC on UUOM-Track-SpeedTarget-v0 (docs/rl.md §42), the same check.
     ("sac_bare_speed_target_s1_selected", "sac_speed_target/eval/pooled"),
+    ("sac_bare_speed_target_s3_selected", "sac_speed_target/eval/pooled_5seeds"),
 ])
 def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode(name, episodes):
     import json

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python scripts/bias_step_separability.py [--plant 60] [--point 100] [--swing-truth]
+    python scripts/bias_step_separability.py [--plant 60] [--point 100] [--swing-model | --swing-truth]
 
 ``fused`` and ``sf-kf`` do not recover from the fault test's 3 s accelerometer bias (+0.5 m/s², torque +10 %): to the
 slope layer a bias step is a grade step. Two signals could tell them apart without a second slope sensor:
@@ -28,6 +28,8 @@ import argparse
 
 import numpy as np
 
+from estimators import dffrls_aekf_kernel as kern
+from estimators.dffrls_aekf import DFFRLSAEKFConfig
 from estimators.fault_injection import inject, seven_channel_rows
 from uuom_core.vehicle import DEFAULT_VEHICLE as VEH
 from uuom_gym.sim.protocol_runs import make_run, protocol_runs
@@ -58,26 +60,30 @@ def block_steps(t: np.ndarray, f: np.ndarray, v: np.ndarray, force_n: np.ndarray
     return ga[2:] - ga[:-2], ra[2:] - ra[:-2]
 
 
+def _hanging_mass_kg(mass_kg: float) -> float:
+    """The hook block and load, which hang on the chains: the train's mass less the rigid body's."""
+    return max(mass_kg - (VEH.empty_mass_kg - VEH.hook_mass_kg), 0.0)
+
+
 def _modelled_load_force(t: np.ndarray, v: np.ndarray, mass_kg: float) -> np.ndarray:
-    """The load's inertial pull beyond a rigid load's, ``m_load (a_load - a)``, from the pendulum the estimators use
-    (:func:`estimators.dffrls_aekf_kernel._swing`: the vehicle file's chain, damping ratio 0.05, forced by the
-    encoder's acceleration low-passed at 5 Hz)."""
-    chain, g = VEH.chain_length_m, 9.80665
-    damp = 2.0 * 0.05 * np.sqrt(g * chain)
-    m_load = max(mass_kg - (VEH.empty_mass_kg - VEH.hook_mass_kg), 0.0)
+    """The load's inertial pull beyond a rigid load's, ``m_load (a_load - a)``, from the single pendulum of the
+    ``dffrls-aekf`` kernel (the vehicle file's chain, the default damping): its own low-pass and integrator
+    (:func:`estimators.dffrls_aekf_kernel._lp`, ``_swing``), forced by the encoder as in its force balance."""
+    C = DFFRLSAEKFConfig().settings(VEH)
+    S = np.zeros(kern.N_S)
+    S[kern.PREV_VQ] = np.nan
+    m_load = _hanging_mass_kg(mass_kg)
     out = np.zeros(len(t))
-    sw = sr = a_f = 0.0
-    v_prev = np.nan
     for i in range(1, len(t)):
-        dt = t[i] - t[i - 1]
-        if np.isfinite(v[i]) and np.isfinite(v_prev) and dt > 0:
-            a_f += (1.0 - np.exp(-2.0 * np.pi * 5.0 * dt)) * ((v[i] - v_prev) / dt - a_f)
-        if np.isfinite(v[i]):
-            v_prev = v[i]
-        a_load = -g * sw - damp * sr
-        sr += dt * (-g * sw - damp * sr - a_f) / chain
-        sw += dt * sr
-        out[i] = m_load * (a_load - a_f)
+        dt = float(t[i] - t[i - 1])
+        if not dt > 0.0:
+            continue
+        vq = kern._lp(S, kern.LQ1, float(v[i]), 1.0 - np.exp(-2.0 * np.pi * C[kern.FAST_HZ] * dt))
+        pq = S[kern.PREV_VQ]
+        S[kern.PREV_VQ] = vq
+        a_fast = (vq - pq) / dt if pq == pq else 0.0
+        a_load = kern._swing(S, kern.SWAY, C[kern.CHAIN_L], C[kern.SWAY_DAMP], C[kern.SWAY_H], a_fast, dt)
+        out[i] = m_load * (a_load - a_fast)
     return out
 
 
@@ -91,9 +97,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--plant", type=int, default=60, help="clean plant runs (protocol order)")
     ap.add_argument("--point", type=int, default=100, help="clean point-mass runs (protocol order)")
-    ap.add_argument("--swing-truth", action="store_true", help="point mass: remove the load's swing with the truth")
-    ap.add_argument("--swing-model", action="store_true",
-                    help="remove the load's swing with the estimators' pendulum (vehicle file's chain, forced by the encoder)")
+    swing = ap.add_mutually_exclusive_group()
+    swing.add_argument("--swing-truth", action="store_true", help="point mass: remove the load's swing with the truth")
+    swing.add_argument("--swing-model", action="store_true",
+                       help="remove the load's swing with the estimators' pendulum (vehicle file's chain, forced by the encoder)")
     a = ap.parse_args()
     radius = VEH.drive_wheel_radius_m
     fault = []
@@ -114,7 +121,7 @@ def main() -> None:
             if a.swing_model:
                 force = force - _modelled_load_force(t, np.asarray(tr["speed_mps"]), mass)
             elif group == "point" and a.swing_truth:
-                m_load = mass - (VEH.empty_mass_kg - VEH.hook_mass_kg)  # hook block and load hang
+                m_load = _hanging_mass_kg(mass)
                 chain = float(tr.meta.get("chain_m", VEH.chain_length_m))
                 th = np.radians(np.asarray(tr["slope_deg"]))
                 phi = np.asarray(tr["sway_rad"]) + th  # the chain's angle from the vertical

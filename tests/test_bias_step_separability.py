@@ -8,12 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
+from uuom_core.units import G_MPS2 as G
+
 _SPEC = importlib.util.spec_from_file_location(
     "bias_step_separability", Path(__file__).parents[1] / "scripts" / "bias_step_separability.py")
 sep = importlib.util.module_from_spec(_SPEC)
 _SPEC.loader.exec_module(sep)  # type: ignore[union-attr]
 
-G = 9.80665
 MASS = 26_000.0
 
 

@@ -398,8 +398,9 @@ def _run(args: argparse.Namespace) -> int:
     if sample_hz is not None and abs(sample_hz / TUNED_SAMPLE_HZ - 1.0) > RATE_NOTE_TOLERANCE:
         print(f"{PROG}: note: {args.trace}: sampled at {sample_hz:.4g} Hz (median interval "
               f"{1000.0 * blocks.median_dt_s:.4g} ms); the estimators' settings are per {TUNED_SAMPLE_HZ:g} Hz "
-              f"sample — on 100 / 50 Hz logs expect up to ~2x the mass error (docs/estimation.md, \"Logs at other "
-              f"sample rates\")", file=sys.stderr)
+              f"sample — on 100 / 50 Hz logs expect up to ~2x the mass error; dffrls-aekf and fused take --option "
+              f"rate_from_trace=True for settings per second (docs/estimation.md, \"Logs at other sample rates\")",
+              file=sys.stderr)
     summary["estimator"] = args.estimator
     summary["trace"] = str(args.trace)
     if args.json:

@@ -46,7 +46,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
     SMOOTH_L, SMOOTH_NB, ACC_PER_NOISE, F_PREV, NOISE_F, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
-    EVID_MIN, DISAGREE,
+    EVID_MIN, DISAGREE, RATE_R, REFERENCE_DT_S,
 )
 from .fixed_lag_kernel import (
     R_DS, R_DT, R_F12, R_FIN, R_FOK, R_LINK, R_PF, R_PP, R_T, R_XF, R_XP, R_XS, R_Z, smooth_ring,
@@ -420,6 +420,8 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         h2 = 0.0
     e = y - h1 * c - h2 * dd
     lam = C[DELTA] + (1.0 - C[DELTA]) * math.exp(-C[SIGMA] * abs(e))
+    if C[RATE_R] != 1.0:  # the forgetting per second kept at another sample rate
+        lam = lam ** C[RATE_R]
     lam_m = 1.0 - C[MASS_FORGET] * (1.0 - lam)
     if C[OFF_FORGET] > 0.0:
         # offset mode: d is the train's resistance-and-slope offset, forgotten faster than the mass (vector
@@ -439,7 +441,9 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         pd /= lam_m
     ph1 = pc * h1 + pcd * h2
     ph2 = pcd * h1 + pd * h2
-    s_m = C[R_M] + h1 * ph1 + h2 * ph2
+    # the residual's variance per sample as a white noise's: the same information per second at any rate
+    r_m = C[R_M] / C[RATE_R]
+    s_m = r_m + h1 * ph1 + h2 * ph2
     if use_rate and e * e > 100.0 * s_m:  # a gross outlier that passed the input gates
         return
     k2 = ph2 / s_m
@@ -453,7 +457,7 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         if abs(a_load_f) < C[WEAK_ACC]:
             # below the common gate (a point-mass filter only): the sample is mostly the grade's level and the offset's
             # prior, and it is correlated with its neighbours over ~CORR_N samples: counted WEAK_R times noisier
-            s_m += C[R_M] * (C[WEAK_R] - 1.0)
+            s_m += r_m * (C[WEAK_R] - 1.0)
             k2 = ph2 / s_m
         k1 = ph1 / s_m
         c += k1 * e
@@ -474,7 +478,7 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         S[MD] = min(max(dd, -C[MU_MAX] * c), C[MU_MAX] * c)
     else:
         S[MD] = min(max(dd, 0.0), C[MU_MAX] * c)
-    S[RES_VAR] += 0.002 * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
+    S[RES_VAR] += min(0.002 * C[RATE_R], 1.0) * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
     S[LAMBDA] = lam
     S[N_MASS] += 1.0
 
@@ -632,7 +636,7 @@ def step(S, H, C, torque, speed, accel, dt):
             # the accelerometer's noise: half the squared change between samples (the signal moves little in 5 ms),
             # clipped so a spike cannot set it, averaged over ~10 s
             d = f - S[F_PREV]
-            S[NOISE_F] += 5e-4 * (min(0.5 * d * d, 0.25) - S[NOISE_F])
+            S[NOISE_F] += min(5e-4 * C[RATE_R], 1.0) * (min(0.5 * d * d, 0.25) - S[NOISE_F])
         S[F_PREV] = f
         S[F_IN] = f
         S[F_OK] = 1.0
@@ -670,7 +674,7 @@ def estimate(S, C, out):
     c = S[MC]
     # the regression counts every 5 ms sample as independent, but its low-passed signals are correlated over
     # ~CORR_N samples: the parameter variance is that much too small
-    infl = max(1.0, S[RES_VAR] / C[R_M]) * C[CORR_N]
+    infl = max(1.0, S[RES_VAR] / C[R_M]) * C[CORR_N] * C[RATE_R]  # (the count at the reference rate)
     out[0] = c * C[M_REF]
     if C[SMOOTH_L] == 0.0:
         out[1] = S[TH_TRAIN]

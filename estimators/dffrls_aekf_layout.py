@@ -4,6 +4,9 @@
 ``H`` the slope history (``N_HIST_MAX`` entries) and the fixed-lag smoother's ring (``N_H`` in all). Plain integer constants: numba compiles them in.
 """
 
+REFERENCE_DT_S = 0.005
+"""The sample step (200 Hz) every per-sample setting was tuned at; a trace at another rate scales them (RATE_R)."""
+
 # --- settings C ---------------------------------------------------------------------------------------------------
 GAP_S = 0
 DT_NOM = 1
@@ -91,7 +94,8 @@ SMOOTH_L = 81  # fixed-lag smoothing: the regression runs this many samples behi
 SMOOTH_NB = 82  # ... one backward pass per this many new samples (estimators.fixed_lag_kernel)
 ACC_PER_NOISE = 83  # > 0: the slope layer's accelerometer std is this times the accelerometer noise read online
 EVID_MIN = 84  # the geometry bank's evidence counts only while its members' slopes differ by at least this (rad)
-CHAIN_SET = 85  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+RATE_R = 85  # the sample step the settings are for over REFERENCE_DT_S (1 at 200 Hz): per-sample rates scale by it
+CHAIN_SET = 86  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8

@@ -9,7 +9,8 @@ from uuom_core.vehicle import G_MPS2
 
 from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MAX_AMBIG, MB, MC, MD, MIN_ACC, MU_MAX,
                                  N_MASS, OFF_FORGET, P0_B, P0_C, P0_D, PB, PC, PCB, PCD, PD, PDB, PROJECT_CLAMP, Q_C,
-                                 R_M, RES_VAR, SIGMA, FUSED_SPREAD, MAX_SPREAD, SPREAD, EVID_MIN)
+                                 R_M, RES_VAR, SIGMA, FUSED_SPREAD, MAX_SPREAD, SPREAD, EVID_MIN,
+                                 RATE_R)
 from .numba_shim import njit
 
 __all__ = ["fused_mass_step"]
@@ -34,6 +35,8 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
     p13, p23, p33 = S[PCB], S[PDB], S[PB] + C[Q_C]
     e = y - h1 * c - h2 * o - h3 * b
     lam = C[DELTA] + (1.0 - C[DELTA]) * math.exp(-C[SIGMA] * abs(e))
+    if C[RATE_R] != 1.0:  # the forgetting per second kept at another sample rate
+        lam = lam ** C[RATE_R]
     lm = 1.0 - C[MASS_FORGET] * (1.0 - lam)
     ld = 1.0 - C[OFF_FORGET] * (1.0 - lam)
     lb = lm
@@ -54,7 +57,7 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
     q1 = p11 * h1 + p12 * h2 + p13 * h3
     q2 = p12 * h1 + p22 * h2 + p23 * h3
     q3 = p13 * h1 + p23 * h2 + p33 * h3
-    s_m = C[R_M] + h1 * q1 + h2 * q2 + h3 * q3
+    s_m = C[R_M] / C[RATE_R] + h1 * q1 + h2 * q2 + h3 * q3  # per-sample noise: a white noise's (dffrls_aekf_kernel)
     if use_rate and e * e > 100.0 * s_m:
         return
     # c only from accelerations, and not while the blend is too uncertain for the slope gravity acts on: std(alpha)
@@ -102,7 +105,7 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
     S[MC] = c
     S[MD] = min(max(o, -C[MU_MAX] * c), C[MU_MAX] * c)
     S[MB] = min(max(b, -0.2 * c), 1.2 * c)
-    S[RES_VAR] += 0.002 * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
+    S[RES_VAR] += min(0.002 * C[RATE_R], 1.0) * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
     S[LAMBDA] = lam
     S[N_MASS] += 1.0
 

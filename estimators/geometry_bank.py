@@ -143,6 +143,8 @@ class GeometryBank(Estimator):
         if self.single is not None:
             return self.single.run(trace, reset, t_prev_s=t_prev_s)
         if reset:
+            for m in self.members:
+                m.adopt_rate(trace["t_s"])
             self.reset()
         t, dts, cols, out = batch_arrays(trace, t_prev_s, len(self._out))
         bk.bank_run(self._SS, self._HH, self._CC, *cols, dts, out)

@@ -46,12 +46,13 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
     SMOOTH_L, SMOOTH_NB, ACC_PER_NOISE, F_PREV, NOISE_F, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
-    EVID_MIN, DISAGREE, RATE_R, REFERENCE_DT_S,
+    EVID_MIN, DISAGREE, RATE_R, REFERENCE_DT_S, RES_GATE2, RES_PERSIST, RES_SKIP,
 )
 from .fixed_lag_kernel import (
     R_DS, R_DT, R_F12, R_FIN, R_FOK, R_LINK, R_PF, R_PP, R_T, R_XF, R_XP, R_XS, R_Z, smooth_ring,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
+from .fused_kernel import residual_gated
 from .input_faults import JUMP_STATE, STUCK_STATE, jump_reset, jump_step, stuck_reset, stuck_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
 
@@ -402,7 +403,7 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         # and the slope output half the window's lagging average (plant tuning runs 1000-1199: slope RMSE median
         # 0.55 -> 0.29 deg; point-mass runs 1000-1059 0.38 -> 0.14 deg; docs/estimation.md, session 25)
         learn_b = S[MOVED] != 0.0 and (C[BLEND_EARLY] != 0.0 or window_measured)
-        _fused_mass_step(S, C, y, a_load_f, sin_lp, sin_loc_lp, use_rate, learn_b)
+        _fused_mass_step(S, C, y, a_load_f, sin_lp, sin_loc_lp, use_rate, learn_b, dt)
         return
 
     # ---------------- mass layer: DFFRLS on the specific-force regression ----------------------------------------
@@ -446,8 +447,9 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
     s_m = r_m + h1 * ph1 + h2 * ph2
     if use_rate and e * e > 100.0 * s_m:  # a gross outlier that passed the input gates
         return
+    gated = residual_gated(S, C, e, h1 * ph1 + h2 * ph2, dt)
     k2 = ph2 / s_m
-    if abs(a_load_f) < C[MIN_ACC]:
+    if gated or abs(a_load_f) < C[MIN_ACC]:
         # no acceleration: the mass is only a considered parameter (Schmidt update, zero gain, its variance kept);
         # at constant speed a slope error of the upper layer would otherwise be read as mass
         dd += k2 * e
@@ -478,7 +480,8 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         S[MD] = min(max(dd, -C[MU_MAX] * c), C[MU_MAX] * c)
     else:
         S[MD] = min(max(dd, 0.0), C[MU_MAX] * c)
-    S[RES_VAR] += min(0.002 * C[RATE_R], 1.0) * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
+    if not gated:
+        S[RES_VAR] += min(0.002 * C[RATE_R], 1.0) * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
     S[LAMBDA] = lam
     S[N_MASS] += 1.0
 

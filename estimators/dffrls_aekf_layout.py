@@ -95,7 +95,9 @@ SMOOTH_NB = 82  # ... one backward pass per this many new samples (estimators.fi
 ACC_PER_NOISE = 83  # > 0: the slope layer's accelerometer std is this times the accelerometer noise read online
 EVID_MIN = 84  # the geometry bank's evidence counts only while its members' slopes differ by at least this (rad)
 RATE_R = 85  # the sample step the settings are for over REFERENCE_DT_S (1 at 200 Hz): per-sample rates scale by it
-CHAIN_SET = 86  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+RES_GATE2 = 86  # > 0: the mass holds on a sample whose residual squared exceeds this times (RES_VAR + h P h)
+RES_PERSIST = 87  # ... unless the gate has held it this long (s) in a row: then the residual is the new scale
+CHAIN_SET = 88  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8
@@ -192,7 +194,8 @@ F_PREV = 94  # the last valid accelerometer sample, and the running mean of half
 NOISE_F = 95  #   (the accelerometer's noise variance, read online; ACC_PER_NOISE)
 DISAGREE = 96  # written by the geometry bank before each step: the spread (max - min, unweighted) of its members'
 #   slopes gravity acts on (rad); outside a bank it stays at DISAGREE_ALONE
-CHAIN_ST = 97  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
+RES_SKIP = 97  # how long (s) the residual gate has held the mass in a row
+CHAIN_ST = 98  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
 #   low-pass of its load acceleration (3 slots), that acceleration, its force-balance evidence (negative log-lik.)
 CHAIN_ST_W = 7
 N_S = CHAIN_ST + CHAIN_ST_W * MAX_CHAINS

@@ -28,12 +28,14 @@ COLUMNS = ("torque_nm", "speed_mps", "accel_mps2", "dt_s", "motor_speed_radps", 
 FAULTS = ("dropout", "stuck", "spike", "bias")
 
 RECOVERY_OPTIONS: dict[str, dict[str, float]] = {"mmae": {"rear_offset_m": 0.0}, "dffrls-aekf": {"chain_length_m": 0.0},
-                                                 "fused": {"chain_length_m": 0.0}}
+                                                 "fused": {"chain_length_m": 0.0},
+                                                 "sf-kf": {"rear_offset_m": 0.0, "chain_length_m": 0.0}}
 """Estimator options for :func:`seven_channel_rows`' world (a rigid point mass): ``mmae``'s default models the plant's
 18 m train (clean mass error 2.8 t instead of 0.2 t on this trace, measured), and ``dffrls-aekf``'s default load
 pendulum is the wrong model of this rigid load (clean mass at the 16 t clamp for a 26 t train; its geometry bank then
 weighs evidence from a broken force balance); ``fused`` likewise (clean mass 3.4-5.6 t low with its pendulums, 0.1 t
-high rigid; session 19). Used by the recovery test and ``scripts/fault_recovery.py``."""
+high rigid; session 19); ``sf-kf``'s default 9 m rear offset and pendulum likewise (clean mass 5.9-6.0 t low
+on seeds 0-7, 0.4 t rigid as a point mass; session 49). Used by the recovery test and ``scripts/fault_recovery.py``."""
 
 RECOVERY_MASS_KG = 26_000.0
 """The mass of :func:`seven_channel_rows`' train in the recovery test and ``scripts/fault_recovery.py``."""

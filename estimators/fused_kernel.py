@@ -10,14 +10,31 @@ from uuom_core.vehicle import G_MPS2
 from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MAX_AMBIG, MB, MC, MD, MIN_ACC, MU_MAX,
                                  N_MASS, OFF_FORGET, P0_B, P0_C, P0_D, PB, PC, PCB, PCD, PD, PDB, PROJECT_CLAMP, Q_C,
                                  R_M, RES_VAR, SIGMA, FUSED_SPREAD, MAX_SPREAD, SPREAD, EVID_MIN,
-                                 RATE_R)
+                                 RATE_R, RES_GATE2, RES_PERSIST, RES_SKIP)
 from .numba_shim import njit
 
-__all__ = ["fused_mass_step"]
+__all__ = ["fused_mass_step", "residual_gated"]
 
 
 @njit(cache=True)
-def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
+def residual_gated(S, C, e, hph, dt):
+    """The regression's residual gate (``residual_gate_sigma``): True when this sample's residual ``e`` is beyond
+    the gate of the running residual scale plus the parameters' uncertainty ``hph``, so the mass holds (a considered
+    parameter, as at constant speed) while the offset and the blend learn on. A run of gated samples longer than
+    RES_PERSIST is a lasting change, not a burst: the residual becomes the scale and the sample is used."""
+    if C[RES_GATE2] <= 0.0:
+        return False
+    if e * e > C[RES_GATE2] * (S[RES_VAR] + hph):
+        S[RES_SKIP] += dt
+        if S[RES_SKIP] < C[RES_PERSIST]:
+            return True
+        S[RES_VAR] = e * e
+    S[RES_SKIP] = 0.0
+    return False
+
+
+@njit(cache=True)
+def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b, dt):
     """Fused observer's regression on three parameters ``[c, o, beta]`` (c = M/M_ref, o = resistance-and-bias
     offset, beta = c alpha, alpha = weight of the slope under the sensors in the slope gravity acts on)::
 
@@ -60,11 +77,12 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
     s_m = C[R_M] / C[RATE_R] + h1 * q1 + h2 * q2 + h3 * q3  # per-sample noise: a white noise's (dffrls_aekf_kernel)
     if use_rate and e * e > 100.0 * s_m:
         return
+    gated = residual_gated(S, C, e, h1 * q1 + h2 * q2 + h3 * q3, dt)
     # c only from accelerations, and not while the blend is too uncertain for the slope gravity acts on: std(alpha)
     # |sin th_loc - sin th_win| above MAX_AMBIG, the fused form of the geometry bank's ambiguity gate (a c learnt
     # then would absorb the blend's error); nor (FUSED_SPREAD) on a grade change within the window, where the slope
     # layer's lag is read as mass (dffrls-aekf's spread gate, here for c alone: o and beta learn on)
-    consider = abs(a_l) < C[MIN_ACC] or math.sqrt(p33) / c * abs(sin_loc - sin_win) > C[MAX_AMBIG] or (
+    consider = gated or abs(a_l) < C[MIN_ACC] or math.sqrt(p33) / c * abs(sin_loc - sin_win) > C[MAX_AMBIG] or (
         C[FUSED_SPREAD] != 0.0 and not S[SPREAD] < C[MAX_SPREAD])
     if not consider:
         c += q1 / s_m * e
@@ -105,7 +123,8 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b):
     S[MC] = c
     S[MD] = min(max(o, -C[MU_MAX] * c), C[MU_MAX] * c)
     S[MB] = min(max(b, -0.2 * c), 1.2 * c)
-    S[RES_VAR] += min(0.002 * C[RATE_R], 1.0) * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
+    if not gated:
+        S[RES_VAR] += min(0.002 * C[RATE_R], 1.0) * (min(e * e, 100.0 * S[RES_VAR]) - S[RES_VAR])
     S[LAMBDA] = lam
     S[N_MASS] += 1.0
 

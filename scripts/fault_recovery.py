@@ -9,7 +9,7 @@ Replays :func:`estimators.fault_injection.seven_channel_run` (40 s, 26 t, varyin
 clean and with each fault of :mod:`estimators.fault_injection` from 10 s to 13 s, and prints, per estimator and
 fault, the mean absolute difference of every declared output from the clean run over 25-40 s (mass in kg, slope in
 degrees, slip ratio, radius in mm). Options as the test's (``RECOVERY_OPTIONS``: ``mmae`` with ``rear_offset_m=0``,
-the rigid load for ``dffrls-aekf`` and ``fused``).
+the rigid load for ``dffrls-aekf`` and ``fused``, ``sf-kf`` as a rigid point mass).
 
 ``--seeds 0-7`` replays the run with each noise seed and prints the worst value over the seeds and how many seeds
 exceed the test's bound (mass 2 % = 520 kg, slope 0.15°, slip 0.01, radius 0.5 mm): the test looks at one seed.

@@ -24,6 +24,8 @@ from uuom_core.trace import Trace
 PINNED = Path(__file__).parent / "data" / "estimators_shared_filters_pinned.npz"
 NAMES = ("rls", "ffrls", "dffrls", "ekf", "rls-ekf", "sf-kf")
 EVERY = 10
+# the estimators as they were when the pin was written: sf-kf's residual gate (session 49) is newer than the move
+AS_PINNED = {"sf-kf": {"residual_gate_sigma": 0.0}}
 
 
 def faulty_trace() -> Trace:
@@ -39,7 +41,7 @@ def faulty_trace() -> Trace:
 
 
 def outputs(name: str, trace: Trace) -> np.ndarray:
-    s = estimators.make(name).run(trace)
+    s = estimators.make(name, **AS_PINNED.get(name, {})).run(trace)
     return np.c_[s.mass_kg, s.slope_rad, s.mass_std_kg, s.slope_std_rad][::EVERY]
 
 

@@ -103,9 +103,10 @@ def test_default_mode_has_no_demand_in_info():
     ("sac_bare_accel_demo_s4_selected", "demonstrations/eval/pooled_6seeds"),
     ("sac_bare_accel_demo_bc_s2_selected", "demo_bc/eval/pooled"),
     ("sac_bare_accel_demo_bc_s3_selected", "demo_bc/eval/pooled_4seeds"),
-    # Not acceleration policies: bare SAC and PPO on UUOM-Track-SpeedTarget-v0 (docs/rl.md §42-§43), the same check.
+    # Not acceleration policies: bare SAC and PPO on UUOM-Track-SpeedTarget-v0 (docs/rl.md §42-§45), the same check.
     ("sac_bare_speed_target_s1_selected", "sac_speed_target/eval/pooled"),
     ("sac_bare_speed_target_s3_selected", "sac_speed_target/eval/pooled_5seeds"),
+    ("sac_bare_speed_target_s5_selected", "sac_speed_target/eval/pooled_7seeds"),
     ("ppo_bare_span_08_13_300k_s4", "ppo_speed_target/eval/pooled_5seeds"),
 ])
 def test_a_shipped_acceleration_policy_reproduces_its_committed_held_out_episode(name, episodes):

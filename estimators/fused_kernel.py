@@ -1,5 +1,6 @@
 """The fused observer's regression step (``fused``, :mod:`estimators.fused`), compiled with the rest of the kernel
-(:mod:`estimators.dffrls_aekf_kernel`, which calls it in place of the two-parameter ``dffrls-aekf`` step)."""
+(:mod:`estimators.dffrls_aekf_kernel`, which calls it in place of the two-parameter ``dffrls-aekf`` step), and the
+residual gate both regression steps call (here, not in the kernel module, which imports this one)."""
 
 from __future__ import annotations
 

@@ -98,8 +98,8 @@ class SpecificForceKF(Estimator):
         ``residual scale + parameter uncertainty`` is skipped (0: off, as before round 2, session 49). The
         regression never forgets (λ = 1), so a sensor miscalibration that passes the input gates (an accelerometer
         bias step reads as a grade step to the slope layer) would otherwise stay in the mass for good: 3 s of
-        +0.5 m/s² and +10 % torque left the mass 5.6 t from its clean run on the rigid fault trace, 60-100 kg with
-        the gate. The scale is the running mean square of the accepted residuals, ``residual_scale_s`` long
+        +0.5 m/s² and +10 % torque left the mass 5.6-5.7 t from its clean run on the rigid fault trace, 63-103 kg
+        with the gate (noise seeds 0-7). The scale is the running mean square of the accepted residuals, ``residual_scale_s`` long
         (``residual_std_mps2`` is a correlation-inflated noise for the update, 4-8 times the residuals' actual
         spread); the parameter term keeps the gate open while the mass is still uncertain. It also skips the
         samples the force balance models worst (the swing, grade transitions), which is where the accuracy gain

@@ -36,10 +36,11 @@ def demonstrator_class(action_mode: str) -> type:
     raise ValueError(f"demonstrations: no demonstrator for action_mode={action_mode!r} (command or acceleration)")
 
 
-def demonstrator_for(env: Any) -> Any:
-    """A new :func:`demonstrator_class` controller for ``env``'s action space and vehicle."""
+def demonstrator_for(env: Any, **options: Any) -> Any:
+    """A new :func:`demonstrator_class` controller for ``env``'s action space and vehicle (``options``: its keyword
+    arguments)."""
     base = env.unwrapped
-    return demonstrator_class(base.config["action_mode"])(base.vehicle)
+    return demonstrator_class(base.config["action_mode"])(base.vehicle, **options)
 
 
 def seed_replay_buffer(model: Any, observer: str, env_kwargs: dict[str, Any], n_episodes: int,

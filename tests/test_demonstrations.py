@@ -58,6 +58,8 @@ def test_demonstrator_matches_the_action_space():
     assert isinstance(demonstrator_for(gym.make("UUOM-Track-v0", observer="oracle", **ACCEL)), AccelerationRuleBased)
     with pytest.raises(ValueError, match="no demonstrator for action_mode='speed_target'"):
         demonstrator_for(gym.make("UUOM-Track-SpeedTarget-v0", observer="oracle"))
+    wide = demonstrator_for(gym.make("UUOM-Track-v0", observer="oracle"), speed_margin=0.2)
+    assert wide.speed_margin == 0.2  # options reach the controller (agents.dagger's demonstrator_options)
 
 
 def _sac(n_envs=2):

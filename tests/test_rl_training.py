@@ -116,3 +116,15 @@ def test_span_policies_arrive_on_a_short_held_out_track(seed):
     assert cfg["env_kwargs"]["speed_target_range"] == [0.8, 1.3]
     row = run_episode(Task(str(run), "dffrls-aekf", 100_000 + seed, json.dumps({**cfg["env_kwargs"], **SHORT})))
     assert row["termination"] == "arrived" and not row["overspeed_trip"], row
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_dagger_policies_arrive_on_a_short_held_out_track(seed):
+    # docs/rl.md §46: a PPO network fitted by DAgger to the rule-based controller (speed margin 0.2) on the default
+    # traction command, 97/100 held out with 0 and 1 trips; acting alone (no residual, no shield)
+    run = POLICIES / f"dagger_m20_traction_s{seed}"
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["seed"] == seed and cfg["env_kwargs"] == {}
+    assert cfg["dagger"]["demonstrator_options"] == {"speed_margin": 0.2}
+    row = run_episode(Task(str(run), "dffrls-aekf", 100_000 + seed, json.dumps(SHORT)))
+    assert row["termination"] == "arrived" and not row["overspeed_trip"], row

@@ -3,7 +3,7 @@
 
 Usage::
 
-    python scripts/dagger.py --seed 0 --run-dir runs/dagger_s0                      # ~6 min on one core
+    python scripts/dagger.py --seed 0 --run-dir runs/dagger_s0                      # ~10-15 min on one core
     uuom-evaluate --controllers runs/dagger_s0 --observers dffrls-aekf --episodes 100 --workers 2 --out /tmp/dg
     uuom-train --init-from runs/dagger_s0 --residual 0 --no-shield --seed 0 --timesteps 300000 \\
         --eval-freq 0 --checkpoint-freq 50000 --run-dir runs/dagger_ppo_s0           # PPO continues from it
@@ -29,8 +29,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--observer", default=defaults.observer)
     ap.add_argument("--seed", type=int, default=defaults.seed)
     ap.add_argument("--env-kwargs", type=json.loads, default={}, help="JSON env config (traction command only)")
-    ap.add_argument("--demonstrator-options", type=json.loads, default={},
-                    help='JSON keyword arguments of the rule-based controller, e.g. \'{"speed_margin": 0.2}\'')
+    ap.add_argument("--demonstrator-options", type=json.loads, default=dict(defaults.demonstrator_options),
+                    help="JSON keyword arguments of the rule-based controller (default "
+                         f"'{json.dumps(defaults.demonstrator_options)}'; '{{}}': the controller as it is)")
     for f in dataclasses.fields(DaggerConfig):
         if f.name in ("run_dir", "observer", "seed", "env_kwargs", "hyperparams", "demonstrator_options"):
             continue

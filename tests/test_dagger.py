@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.dagger import DaggerConfig, DaggerError, _rollout, dagger
+from agents.dagger import DEFAULT_DEMONSTRATOR_OPTIONS, DaggerConfig, DaggerError, _rollout, dagger
 
 TINY = dict(demo_episodes=2, iterations=1, episodes_per_iteration=1, validation_episodes=1, value_episodes=1,
             epochs=40, env_kwargs={"track_length_m": [60.0, 80.0]})
@@ -27,7 +27,7 @@ def test_run_directory_is_a_policy(tiny_run: Path) -> None:
         assert (tiny_run / name).is_file(), name
     cfg = json.loads((tiny_run / "config.json").read_text())
     assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["timesteps"] == 0
-    assert cfg["dagger"]["iterations"] == 1
+    assert cfg["dagger"]["iterations"] == 1 and cfg["dagger"]["demonstrator_options"] == {"speed_margin": 0.2}
     log = json.loads((tiny_run / "dagger.json").read_text())
     assert [h["iteration"] for h in log["iterations"]] == [0, 1]
     assert log["kept_iteration"] in (0, 1)
@@ -46,7 +46,7 @@ def test_actor_imitates_the_demonstrator(tiny_run: Path) -> None:
     from agents.evaluation import ModelPolicy
 
     env = gym.make("UUOM-Track-v0", observer="dffrls-aekf", **TINY["env_kwargs"])
-    x, y, _, info = _rollout(env, demonstrator_for(env), DEMO_SEED_OFFSET)
+    x, y, _, info = _rollout(env, demonstrator_for(env, **DEFAULT_DEMONSTRATOR_OPTIONS), DEMO_SEED_OFFSET)
     env.close()
     assert info["is_success"]
     pol = ModelPolicy(tiny_run)

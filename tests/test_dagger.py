@@ -93,3 +93,14 @@ def test_bad_input_is_named(bad: dict, msg: str, tmp_path: Path) -> None:
     with pytest.raises(DaggerError, match=msg):
         dagger(DaggerConfig(run_dir=str(tmp_path / "x"), **{**TINY, **bad}), log=lambda _: None)
     assert not (tmp_path / "x").exists()
+
+
+def test_script_names_bad_input(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, str(root / "scripts" / "dagger.py"), "--run-dir", str(tmp_path / "x"),
+                          "--demonstrator-options", '{"no_such_gain": 1}'], capture_output=True, text=True, cwd=root)
+    assert out.returncode == 2 and "demonstrator_options" in out.stderr and "no_such_gain" in out.stderr, out.stderr
+    assert not (tmp_path / "x").exists()

@@ -128,3 +128,13 @@ def test_dagger_policies_arrive_on_a_short_held_out_track(seed):
     assert cfg["dagger"]["demonstrator_options"] == {"speed_margin": 0.2}
     row = run_episode(Task(str(run), "dffrls-aekf", 100_000 + seed, json.dumps(SHORT)))
     assert row["termination"] == "arrived" and not row["overspeed_trip"], row
+
+
+def test_ppo_from_dagger_policy_arrives_on_a_short_held_out_track():
+    # docs/rl.md §46: PPO at learning_rate 3e-5 continued from dagger_m20_traction_s0; 96/100 held out, 0 trips
+    run = POLICIES / "ppo_lowlr_from_dagger_m20_traction_s0"
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
+    assert cfg["init_from"].endswith("m20_s0") and cfg["selected_checkpoint"]["step"] == 100_000
+    row = run_episode(Task(str(run), "dffrls-aekf", 100_000, json.dumps(SHORT)))
+    assert row["termination"] == "arrived" and not row["overspeed_trip"], row

@@ -19,7 +19,8 @@ What :func:`dagger` does, in a PPO model built exactly as ``uuom-train --residua
    ``rollout_noise_std`` of Gaussian noise), every state labelled with what the demonstrator, following the same
    episode, would do; aggregated, refitted; after each fit the policy is driven on ``validation_episodes`` validation
    tracks (:data:`agents.tune.VALIDATION_SEED_BASE` on) and the best fit is kept (``keep``: the most arrivals, or
-   the checkpoint rule of :mod:`agents.checkpoint_selection`, arrivals minus ten per trip);
+   the checkpoint rule's score of :mod:`agents.checkpoint_selection`, arrivals minus ten per trip; then the faster
+   arrivals; on a full tie the earlier fit, where that rule takes the later checkpoint);
 4. the critic regressed on the discounted normalised returns of ``value_episodes`` episodes of the kept policy
    sampled as PPO will sample it, and the reward normaliser's statistics set from them, so that PPO's first updates
    see sensible advantages; the policy's ``log_std`` set to ``log_std``.
@@ -27,9 +28,9 @@ What :func:`dagger` does, in a PPO model built exactly as ``uuom-train --residua
 The result is a run directory (``model.zip``, ``vecnormalize.pkl``, ``config.json`` with a ``dagger`` entry,
 ``dagger.json`` with every iteration's validation, ``iterations/<k>/`` each fit as a policy folder) that
 ``uuom-evaluate`` drives like any policy and ``uuom-train --init-from DIR --residual 0 --no-shield`` continues with
-PPO. The policy acts alone: no demonstrator,
-residual or shield at test time. Tracks: demonstrations and DAgger episodes from
-:data:`agents.demonstrations.DEMO_SEED_OFFSET` ``+ 1000 seed``, apart from training, validation and held-out seeds.
+PPO. The policy acts alone: no demonstrator, residual or shield at test time. Tracks: demonstrations and DAgger
+episodes from :data:`agents.demonstrations.DEMO_SEED_OFFSET` ``+ 1000 seed``, apart from training, validation and
+held-out seeds.
 """
 
 from __future__ import annotations
@@ -85,14 +86,12 @@ class DaggerConfig:
 
     def check(self) -> None:
         """Raise :class:`DaggerError` naming the first bad field."""
+        from estimators.filters import check_int_option
+
         counts = {"demo_episodes": 1, "iterations": 0, "episodes_per_iteration": 1, "epochs": 1, "batch_size": 1,
-                  "validation_episodes": 1, "value_episodes": 1}
+                  "validation_episodes": 1, "value_episodes": 1, "seed": 0}
         for name, low in counts.items():
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < low:
-                raise DaggerError(f"{name} must be a whole number >= {low}, got {v!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise DaggerError(f"seed must be a whole number >= 0, got {self.seed!r}")
+            check_int_option(name, getattr(self, name), DaggerError, low)
         if self.demo_episodes + self.iterations * self.episodes_per_iteration + self.value_episodes > 1000:
             raise DaggerError("demo_episodes + iterations x episodes_per_iteration + value_episodes must be <= 1000 "
                               "(the tracks of one seed)")

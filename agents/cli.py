@@ -96,7 +96,12 @@ def train_parser() -> argparse.ArgumentParser:
     ap.add_argument("--demo-bc", type=float, default=0.0, metavar="W",
                     help="SAC with --demo-episodes: also hold the policy to the demonstrations where its critic rates "
                     "them above its own action, a Q-filtered behaviour-cloning term of weight W (agents/demo_bc.py; "
-                    "0.4 matches TD3+BC's alpha 2.5; 0: off)")
+                    "0.4 matches TD3+BC's alpha 2.5); PPO, bare set-up: add W times the squared distance of the mean "
+                    "action to the demonstrator's labels of the rollouts' states to PPO's loss (agents/ppo_bc.py); "
+                    "0: off")
+    ap.add_argument("--demonstrator-options", type=_json_object, default=None, metavar="JSON",
+                    help="PPO with --demo-bc: keyword arguments of the labelling rule-based controller (default "
+                    "'{\"speed_margin\": 0.2}', the DAgger start's demonstrator; '{}': the controller as it is)")
     return ap
 
 
@@ -115,6 +120,7 @@ def train_config(args: argparse.Namespace) -> Any:
         action_std_ceiling=tuple(args.action_std_ceiling)
         if args.action_std_ceiling is not None else None,
         demo_episodes=args.demo_episodes, demo_bc_weight=args.demo_bc,
+        demonstrator_options=args.demonstrator_options,
     )
 
 

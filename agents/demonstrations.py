@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 DEMO_SEED_OFFSET = 5_000_000
@@ -115,4 +116,35 @@ def seed_replay_buffer(model: Any, observer: str, env_kwargs: dict[str, Any], n_
     return {"episodes": ended, "arrived": arrived, "transitions": transitions}
 
 
-__all__ = ["DEMO_SEED_OFFSET", "demonstrator_class", "demonstrator_for", "seed_replay_buffer"]
+class DemonstratorLabels(gym.Wrapper):
+    """``env`` with every step's ``info["demo_action"]``: what the demonstrator (:func:`demonstrator_for`,
+    ``options`` its keyword arguments) would have commanded at the observation the step's action was taken at -- the
+    online labels of :class:`agents.ppo_bc.PPOWithDemoBC` (DAgger's labelling, during training).
+
+    The demonstrator follows every episode (reset with the env, fed every observation), so its state is the
+    episode's whoever drives; the action applied is the caller's.
+    """
+
+    def __init__(self, env: Any, **options: Any) -> None:
+        super().__init__(env)
+        self.demonstrator = demonstrator_for(env, **options)
+        self._obs: Any = None
+        self._info: Any = None
+
+    def reset(self, **kwargs: Any) -> Any:
+        obs, info = self.env.reset(**kwargs)
+        self.demonstrator.reset(self.env, info)
+        self._obs, self._info = obs, info
+        return obs, info
+
+    def step(self, action: Any) -> Any:
+        if self._obs is None:
+            raise RuntimeError("DemonstratorLabels: step() before reset()")
+        label = np.clip(np.asarray(self.demonstrator.act(self._obs, self._info), dtype=np.float32), -1.0, 1.0)
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        self._obs, self._info = obs, info
+        info = {**info, "demo_action": label}
+        return obs, reward, terminated, truncated, info
+
+
+__all__ = ["DEMO_SEED_OFFSET", "demonstrator_class", "demonstrator_for", "DemonstratorLabels", "seed_replay_buffer"]

@@ -69,7 +69,11 @@ class TrainConfig:
     set-up only, a new run only); the demonstrator's steps are not counted in ``timesteps``. ``demo_bc_weight`` > 0
     (SAC with ``demo_episodes`` only): the learner is :class:`agents.demo_bc.SACWithDemoBC`, which also holds the
     policy to the demonstrations where its critic rates them above its own action (a Q-filtered behaviour-cloning
-    term of that weight); the saved policy is a plain SAC policy.
+    term of that weight); the saved policy is a plain SAC policy. With PPO (bare set-up), ``demo_bc_weight`` > 0
+    makes the learner :class:`agents.ppo_bc.PPOWithDemoBC`: its rollouts are labelled online by the demonstrator
+    (:class:`agents.demonstrations.DemonstratorLabels` with ``demonstrator_options``, default
+    :data:`agents.dagger.DEFAULT_DEMONSTRATOR_OPTIONS`: the DAgger start's demonstrator) and the policy's mean is held
+    to the labels by a term of that weight in PPO's loss; the saved policy is a plain PPO policy.
     """
 
     algo: str = "ppo"
@@ -98,6 +102,7 @@ class TrainConfig:
     action_std_ceiling: tuple[float, float, int] | None = None
     demo_episodes: int = 0
     demo_bc_weight: float = 0.0
+    demonstrator_options: dict[str, Any] | None = None
 
 
 # --- environments --------------------------------------------------------------------------------------------
@@ -123,9 +128,10 @@ def wrap_env(env: Any, shield: bool, residual: float = 0.0, margin_schedule: tup
 
 
 def make_env_fn(observer: str, seed: int, shield: bool, env_kwargs: dict[str, Any], residual: float = 0.0,
-                margin_schedule: tuple[float, float] | None = None):
+                margin_schedule: tuple[float, float] | None = None, demo_labels: dict[str, Any] | None = None):
     """A picklable env factory for SubprocVecEnv: env -> shield -> residual or margin schedule -> Monitor
-    (normalisation outside)."""
+    (normalisation outside). ``demo_labels`` (demonstrator options): the bare env's steps also carry the
+    demonstrator's label (:class:`agents.demonstrations.DemonstratorLabels`)."""
 
     def _init():
         import multiprocessing
@@ -139,6 +145,10 @@ def make_env_fn(observer: str, seed: int, shield: bool, env_kwargs: dict[str, An
             # Ctrl-C is the parent's to handle (it saves a checkpoint); workers must not die with a traceback.
             signal.signal(signal.SIGINT, signal.SIG_IGN)
         env = wrap_env(gym.make(ENV_ID, observer=observer, **env_kwargs), shield, residual, margin_schedule)
+        if demo_labels is not None:
+            from agents.demonstrations import DemonstratorLabels
+
+            env = DemonstratorLabels(env, **demo_labels)
         env = Monitor(env, info_keywords=("is_success",))
         env.reset(seed=seed)
         return env
@@ -149,11 +159,13 @@ def make_env_fn(observer: str, seed: int, shield: bool, env_kwargs: dict[str, An
 def make_vec_env(
     observer: str, seed: int, n_envs: int, shield: bool, env_kwargs: dict[str, Any], subproc: bool,
     residual: float = 0.0, margin_schedule: tuple[float, float] | None = None,
+    demo_labels: dict[str, Any] | None = None,
 ):
     """``n_envs`` envs with seeds ``seed, seed + 1, ...`` (SubprocVecEnv if ``subproc`` and ``n_envs > 1``)."""
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-    fns = [make_env_fn(observer, seed + i, shield, env_kwargs, residual, margin_schedule) for i in range(n_envs)]
+    fns = [make_env_fn(observer, seed + i, shield, env_kwargs, residual, margin_schedule, demo_labels)
+           for i in range(n_envs)]
     if subproc and n_envs > 1:
         return SubprocVecEnv(fns, start_method="fork" if sys.platform.startswith("linux") else "spawn")
     return DummyVecEnv(fns)
@@ -237,10 +249,17 @@ def plan(config: TrainConfig) -> _Plan:
     if (isinstance(c.demo_bc_weight, bool) or not isinstance(c.demo_bc_weight, (int, float))
             or not math.isfinite(c.demo_bc_weight) or c.demo_bc_weight < 0):
         raise TrainConfigError(f"demo_bc_weight must be a finite number >= 0, got {c.demo_bc_weight!r}")
-    if c.demo_bc_weight > 0 and (c.algo != "sac" or not c.demo_episodes):
-        raise TrainConfigError("demo_bc_weight: the behaviour-cloning term is SAC's (--algo sac) on its "
-                               f"demonstrations (--demo-episodes N > 0); got --algo {c.algo}, "
-                               f"--demo-episodes {c.demo_episodes}")
+    if c.demo_bc_weight > 0 and c.algo not in ("sac", "ppo"):
+        raise TrainConfigError(f"demo_bc_weight: a behaviour-cloning term is SAC's (on --demo-episodes) or PPO's (on "
+                               f"online labels); got --algo {c.algo}")
+    if c.demo_bc_weight > 0 and c.algo == "sac" and not c.demo_episodes:
+        raise TrainConfigError("demo_bc_weight: SAC's behaviour-cloning term is on its demonstrations "
+                               f"(--demo-episodes N > 0); got --algo sac, --demo-episodes {c.demo_episodes}")
+    if c.demonstrator_options is not None and not (c.algo == "ppo" and c.demo_bc_weight > 0):
+        raise TrainConfigError("demonstrator_options: the online labeller of PPO's behaviour-cloning term "
+                               "(--algo ppo --demo-bc W > 0) is the only demonstrator it sets")
+    if c.demonstrator_options is not None and not isinstance(c.demonstrator_options, dict):
+        raise TrainConfigError(f"demonstrator_options must be a JSON object, got {c.demonstrator_options!r}")
     try:
         env_kwargs = {**env_kwargs_of(c.env_id), **c.env_kwargs}
     except ValueError as exc:
@@ -273,6 +292,8 @@ def plan(config: TrainConfig) -> _Plan:
     action_mode = _check_env(c.observer, env_kwargs, shield, residual, margin_schedule)
     if c.demo_episodes:
         _check_demonstrations(c, action_mode, shield, residual, margin_schedule)
+    if c.algo == "ppo" and c.demo_bc_weight > 0:
+        _check_labeller(c, action_mode, shield, residual, margin_schedule, env_kwargs)
     run_dir = Path(c.run_dir) if c.run_dir is not None else Path(c.log_dir) / run_dir_name(
         c.algo, c.observer, c.seed, shield, residual, margin_schedule is not None)
     return _Plan(total, n_envs, shield, residual, policy, norm_kwargs, hp, run_dir, env_kwargs, margin_schedule)
@@ -324,6 +345,31 @@ def _check_demonstrations(c: TrainConfig, action_mode: str, shield: bool, residu
         raise TrainConfigError(str(exc)) from None
 
 
+def demo_label_options(config: TrainConfig) -> dict[str, Any] | None:
+    """The demonstrator options of the online labeller (PPO with ``demo_bc_weight`` > 0), else ``None``."""
+    if config.algo != "ppo" or not config.demo_bc_weight:
+        return None
+    from agents.dagger import DEFAULT_DEMONSTRATOR_OPTIONS
+
+    opts = config.demonstrator_options
+    return dict(DEFAULT_DEMONSTRATOR_OPTIONS if opts is None else opts)
+
+
+def _check_labeller(c: TrainConfig, action_mode: str, shield: bool, residual: float,
+                    margin_schedule: tuple[float, float] | None, env_kwargs: dict[str, Any]) -> None:
+    if shield or residual > 0 or margin_schedule is not None:
+        raise TrainConfigError("demo_bc_weight: the demonstrator labels the bare env's action; pass --residual 0 "
+                               "--no-shield (and no margin schedule)")
+    from agents.demonstrations import demonstrator_class
+
+    try:
+        demonstrator_class(action_mode)
+        env = make_env_fn(c.observer, 0, False, env_kwargs, 0.0, None, demo_label_options(c))()
+        env.close()
+    except (ValueError, TypeError) as exc:
+        raise TrainConfigError(f"demonstrator_options: {exc}") from None
+
+
 # --- training ------------------------------------------------------------------------------------------------
 def train(config: TrainConfig) -> Path:
     """Run (or, with ``config.resume``, continue) one training; return the run directory.
@@ -356,6 +402,7 @@ def train(config: TrainConfig) -> Path:
         "hyperparams": {k: repr(v) for k, v in p.hp.items()}, "normalize": p.normalize,
         **({"demo_episodes": config.demo_episodes} if config.demo_episodes else {}),
         **({"demo_bc_weight": float(config.demo_bc_weight)} if config.demo_bc_weight else {}),
+        **({"demonstrator_options": demo_label_options(config)} if demo_label_options(config) is not None else {}),
     }
     init = None
     if config.init_from is not None:
@@ -443,7 +490,8 @@ def _check_same_run(run_dir: Path, record: dict[str, Any]) -> None:
     if not path.exists():
         return
     old = json.loads(path.read_text())
-    for k in ("demo_episodes", "demo_bc_weight"):  # absent from a record when off: off is a change too
+    # absent from a record when off: off is a change too
+    for k in ("demo_episodes", "demo_bc_weight", "demonstrator_options"):
         if k in old and k not in record:
             raise TrainConfigError(f"--resume with a different {k} ({old[k]!r} in {path}, now off)")
     # The step budget may grow on resume; everything that defines the task and the learner must not change.
@@ -464,12 +512,17 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
     torch.set_num_threads(1)  # the env processes need the cores; small MLPs gain nothing from threads
     run_dir, ckpt_dir = p.run_dir, p.run_dir / "checkpoints"
     cls = algo_class(config.algo)
-    if config.demo_bc_weight:
+    bc = {"bc_weight": float(config.demo_bc_weight)} if config.demo_bc_weight else {}
+    if config.demo_bc_weight and config.algo == "sac":
         from agents.demo_bc import SACWithDemoBC
 
         cls = SACWithDemoBC
+    elif config.demo_bc_weight:
+        from agents.ppo_bc import PPOWithDemoBC
+
+        cls = PPOWithDemoBC
     venv = make_vec_env(config.observer, config.seed, p.n_envs, p.shield, p.env_kwargs, config.subproc, p.residual,
-                        p.margin_schedule)
+                        p.margin_schedule, demo_label_options(config))
     eval_venv = None
     start = resume if resume is not None else init
     try:
@@ -479,7 +532,7 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
                     raise TrainConfigError(f"checkpoint {start.path} has no vecnormalize.pkl")
                 venv = VecNormalize.load(str(start.vecnormalize), venv)
                 venv.training = True
-            model = cls.load(start.model, env=venv, device=config.device,
+            model = cls.load(start.model, env=venv, device=config.device, **bc,
                              **(_init_overrides(config, p, record["init_steps"]) if resume is None else {}))
             if start.replay_buffer is not None and hasattr(model, "load_replay_buffer"):
                 model.load_replay_buffer(start.replay_buffer)
@@ -495,8 +548,7 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
                 venv = VecNormalize(venv, **p.normalize)
             try:
                 model = cls(p.policy, venv, seed=config.seed, device=config.device, verbose=0,
-                            **_model_kwargs(p.hp, 0, p.total),
-                            **({"bc_weight": float(config.demo_bc_weight)} if config.demo_bc_weight else {}))
+                            **_model_kwargs(p.hp, 0, p.total), **bc)
             except (TypeError, ValueError, AssertionError) as exc:
                 raise TrainConfigError(f"{config.algo} rejects the hyperparameters: {exc}") from None
         run_dir.mkdir(parents=True, exist_ok=True)

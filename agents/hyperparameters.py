@@ -33,12 +33,12 @@ class TrainConfigError(ValueError):
 
 
 def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[str] | None = None,
-                     env_id: str = ENV_ID) -> dict[str, Any]:
+                     env_id: str = ENV_ID, learner: type | None = None) -> dict[str, Any]:
     """The rl-zoo-style YAML entry for ``env_id`` (default ``UUOM-Track-v0``) with ``key=value`` overrides applied.
 
     An override of a key the file has must keep its kind (number, bool, string; a number of
     :data:`SCHEDULE_KEYS` may become ``lin_<number>``); a new key must be an argument of the algorithm's
-    constructor.
+    constructor (``learner``'s where training uses a subclass of it, e.g. :class:`agents.ppo_bc.PPOWithDemoBC`).
 
     Raises
     ------
@@ -58,7 +58,7 @@ def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[s
         keys = ", ".join(map(str, data)) if isinstance(data, dict) else type(data).__name__
         raise TrainConfigError(f"{path} has no '{env_id}' entry (has: {keys})")
     hp = dict(data[env_id])
-    accepted = _constructor_args(algo)
+    accepted = _constructor_args(learner or algo_class(algo))
     for item in overrides or []:
         if "=" not in item:
             raise TrainConfigError(f"--hyperparams expects key=value, got {item!r}")
@@ -90,10 +90,9 @@ def parse_value(text: str) -> Any:
     return yaml.safe_load(text)
 
 
-def _constructor_args(algo: str) -> set[str]:
+def _constructor_args(cls: type) -> set[str]:
     import inspect
 
-    cls = algo_class(algo)
     return {n for c in cls.__mro__ if "__init__" in vars(c) for n in inspect.signature(c.__init__).parameters}
 
 

@@ -75,6 +75,9 @@ class PPOWithDemoBC(PPO):
         ``env``'s steps must carry ``info["demo_action"]`` (:class:`agents.demonstrations.DemonstratorLabels`).
     bc_weight : float
         ``W`` of the module's loss, >= 0 (0: plain PPO).
+    pg_coef : float
+        Factor on PPO's clipped policy-gradient loss, in [0, 1] (1: PPO's own; 0: the policy learns from the labels
+        alone, online DAgger with PPO's critic still fitted -- the ablation that says what the RL term adds).
     **kwargs
         Everything else of :class:`stable_baselines3.PPO`.
 
@@ -84,8 +87,9 @@ class PPOWithDemoBC(PPO):
         The last update's mean behaviour-cloning loss (unweighted) and the mean |label - action taken|.
     """
 
-    def __init__(self, policy: Any, env: Any, bc_weight: float = 1.0, **kwargs: Any) -> None:
+    def __init__(self, policy: Any, env: Any, bc_weight: float = 1.0, pg_coef: float = 1.0, **kwargs: Any) -> None:
         self.bc_weight = self.check_weight(bc_weight)
+        self.pg_coef = pg_coef
         self.bc_stats: dict[str, float] = {}
         self._labelling = False
         super().__init__(policy, env, **kwargs)
@@ -100,6 +104,10 @@ class PPOWithDemoBC(PPO):
     def _setup_model(self) -> None:
         if not isinstance(self.action_space, spaces.Box):
             raise ValueError(f"PPOWithDemoBC: a Box action space is needed, got {self.action_space}")
+        self.check_weight(self.bc_weight)  # load() sets the attributes without __init__
+        pg = self.pg_coef
+        if isinstance(pg, bool) or not isinstance(pg, (int, float)) or not 0.0 <= pg <= 1.0:
+            raise ValueError(f"pg_coef must be a number in [0, 1], got {pg!r}")
         self.rollout_buffer_class = DemoLabelRolloutBuffer  # also for a model loaded from a plain PPO zip
         self._labelling = False
         super()._setup_model()
@@ -166,7 +174,7 @@ class PPOWithDemoBC(PPO):
                 value_losses.append(value_loss.item())
                 entropy_loss = -th.mean(-log_prob) if entropy is None else -th.mean(entropy)
                 entropy_losses.append(entropy_loss.item())
-                loss = policy_loss + self.ent_coef * entropy_loss + self.vf_coef * value_loss
+                loss = self.pg_coef * policy_loss + self.ent_coef * entropy_loss + self.vf_coef * value_loss
                 if self.bc_weight > 0:
                     mean = self.policy.get_distribution(data.observations).distribution.mean
                     target = th.clamp(data.demo_actions, low, high)

@@ -264,7 +264,12 @@ def plan(config: TrainConfig) -> _Plan:
         env_kwargs = {**env_kwargs_of(c.env_id), **c.env_kwargs}
     except ValueError as exc:
         raise TrainConfigError(str(exc)) from None
-    hp = load_hyperparams(c.algo, c.conf_file, c.hyperparams, c.env_id)
+    learner = None
+    if c.algo == "ppo" and c.demo_bc_weight > 0:
+        from agents.ppo_bc import PPOWithDemoBC
+
+        learner = PPOWithDemoBC  # its own arguments (pg_coef) may be named in --hyperparams
+    hp = load_hyperparams(c.algo, c.conf_file, c.hyperparams, c.env_id, learner)
     n_envs = c.n_envs if c.n_envs is not None else hp.pop("n_envs", 1)
     total = c.timesteps if c.timesteps is not None else hp.pop("n_timesteps", 100_000)
     hp.pop("n_envs", None)

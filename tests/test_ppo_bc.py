@@ -100,6 +100,30 @@ def test_the_term_pulls_the_mean_action_to_the_labels():
     assert gaps[50.0] < 0.05, gaps
 
 
+def test_pg_coef_zero_leaves_the_actor_to_the_labels():
+    """``pg_coef=0`` (the ablation): with no BC term either the actor does not move at all, the critic still learns."""
+    model = PPOWithDemoBC("MlpPolicy", _venv(), bc_weight=0.0, pg_coef=0.0, **PPO_KW)
+    actor = [p.detach().clone() for p in model.policy.mlp_extractor.policy_net.parameters()]
+    critic = [p.detach().clone() for p in model.policy.value_net.parameters()]
+    model.learn(256)
+    assert all(th.equal(a, b) for a, b in zip(actor, model.policy.mlp_extractor.policy_net.parameters()))
+    assert not all(th.equal(a, b) for a, b in zip(critic, model.policy.value_net.parameters()))
+
+
+@pytest.mark.parametrize("pg", [-0.1, 1.5, True, float("nan")])
+def test_bad_pg_coef_is_refused(pg):
+    with pytest.raises(ValueError, match="pg_coef must be"):
+        PPOWithDemoBC("MlpPolicy", _venv(), pg_coef=pg, **PPO_KW)
+
+
+def test_pg_coef_is_a_hyperparameter_of_the_bc_learner_only(tmp_path):
+    base = dict(algo="ppo", residual=0.0, shield=False, observer="oracle", timesteps=100, run_dir=tmp_path / "r",
+                env_kwargs=dict(SHORT), hyperparams=["pg_coef=0"])
+    assert plan(TrainConfig(demo_bc_weight=1.0, **base)).hp["pg_coef"] == 0
+    with pytest.raises(TrainConfigError, match="ppo has no hyperparameter 'pg_coef'"):
+        plan(TrainConfig(**base))
+
+
 def test_missing_labels_are_named():
     model = PPOWithDemoBC("MlpPolicy", _venv(labels=False), bc_weight=1.0, **PPO_KW)
     with pytest.raises(KeyError, match="DemonstratorLabels"):

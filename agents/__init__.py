@@ -9,6 +9,9 @@ speed_profile       forward/backward minimum-time speed profile over a known tra
 shield              safety shield (command filter from the estimates and their uncertainty) and its env wrapper
 residual            residual wrapper: the policy corrects the rule-based controller's command
 ppo_lagrangian      PPO with a cost critic and a learned Lagrange multiplier (uses ``info["cost"]``)
+demonstrations      the rule-based controller as demonstrator: replay-buffer seeding, online labels
+demo_bc, ppo_bc     SAC with a Q-filtered BC term on demonstrations; PPO with a BC term on online labels
+dagger              a PPO policy fitted to the rule-based controller by DAgger (a warm start for PPO)
 training            ``train(TrainConfig)``: validation, checkpoints, Ctrl-C, resume (``uuom-train``)
 hyperparameters     the rl-zoo style YAML files as training reads them (overrides, ``env_wrapper``)
 checkpoints         crash-safe checkpoint directories; training_callbacks: their SB3 callbacks

@@ -174,7 +174,8 @@ def test_cli_passes_the_weight_and_the_demonstrator():
 
 def test_training_from_a_ppo_run_records_the_labeller_and_resumes(tmp_path):
     kw = dict(algo="ppo", residual=0.0, shield=False, observer="dffrls-aekf", seed=1, n_envs=2, eval_freq=0,
-              checkpoint_freq=0, subproc=False, progress=False, env_kwargs=dict(SHORT), hyperparams=["n_steps=64", "batch_size=64"])
+              checkpoint_freq=0, subproc=False, progress=False, env_kwargs=dict(SHORT),
+              hyperparams=["n_steps=64", "batch_size=64"])
     source = train(TrainConfig(timesteps=128, run_dir=tmp_path / "src", **kw))
     bc = dict(kw, checkpoint_freq=128, demo_bc_weight=3.0)
     run = train(TrainConfig(timesteps=256, run_dir=tmp_path / "bc", init_from=source, **bc))

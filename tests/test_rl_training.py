@@ -142,8 +142,8 @@ def test_ppo_from_dagger_policy_arrives_on_a_short_held_out_track():
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_ppo_with_online_bc_policies_arrive_on_a_short_held_out_track(seed):
-    # docs/rl.md §47: PPO + the online behaviour-cloning term (W 100, learning_rate 3e-5) from dagger_m20_traction_s<seed>;
-    # 100/100 and 99/100 held out, 0 trips
+    # docs/rl.md §47: PPO + the online behaviour-cloning term (W 100, learning_rate 3e-5) from
+    # dagger_m20_traction_s<seed>; 100/100 and 99/100 held out, 0 trips
     run = POLICIES / f"ppo_bc_from_dagger_m20_traction_s{seed}"
     cfg = json.loads((run / "config.json").read_text())
     assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}

@@ -264,12 +264,8 @@ def plan(config: TrainConfig) -> _Plan:
         env_kwargs = {**env_kwargs_of(c.env_id), **c.env_kwargs}
     except ValueError as exc:
         raise TrainConfigError(str(exc)) from None
-    learner = None
-    if c.algo == "ppo" and c.demo_bc_weight > 0:
-        from agents.ppo_bc import PPOWithDemoBC
-
-        learner = PPOWithDemoBC  # its own arguments (pg_coef) may be named in --hyperparams
-    hp = load_hyperparams(c.algo, c.conf_file, c.hyperparams, c.env_id, learner)
+    # the learner's own arguments (PPOWithDemoBC's pg_coef) may be named in --hyperparams
+    hp = load_hyperparams(c.algo, c.conf_file, c.hyperparams, c.env_id, learner_class(c))
     n_envs = c.n_envs if c.n_envs is not None else hp.pop("n_envs", 1)
     total = c.timesteps if c.timesteps is not None else hp.pop("n_timesteps", 100_000)
     hp.pop("n_envs", None)
@@ -348,6 +344,21 @@ def _check_demonstrations(c: TrainConfig, action_mode: str, shield: bool, residu
         demonstrator_class(action_mode)
     except ValueError as exc:
         raise TrainConfigError(str(exc)) from None
+
+
+def learner_class(config: TrainConfig) -> type:
+    """The class that trains: the algorithm's (:func:`agents.algos.algo_class`), or its behaviour-cloning subclass
+    when ``demo_bc_weight`` > 0 (SAC: :class:`agents.demo_bc.SACWithDemoBC`, PPO:
+    :class:`agents.ppo_bc.PPOWithDemoBC`)."""
+    if config.demo_bc_weight and config.algo == "sac":
+        from agents.demo_bc import SACWithDemoBC
+
+        return SACWithDemoBC
+    if config.demo_bc_weight and config.algo == "ppo":
+        from agents.ppo_bc import PPOWithDemoBC
+
+        return PPOWithDemoBC
+    return algo_class(config.algo)
 
 
 def demo_label_options(config: TrainConfig) -> dict[str, Any] | None:
@@ -516,16 +527,8 @@ def _learn(config: TrainConfig, p: _Plan, record: dict[str, Any], resume: Any, i
 
     torch.set_num_threads(1)  # the env processes need the cores; small MLPs gain nothing from threads
     run_dir, ckpt_dir = p.run_dir, p.run_dir / "checkpoints"
-    cls = algo_class(config.algo)
+    cls = learner_class(config)
     bc = {"bc_weight": float(config.demo_bc_weight)} if config.demo_bc_weight else {}
-    if config.demo_bc_weight and config.algo == "sac":
-        from agents.demo_bc import SACWithDemoBC
-
-        cls = SACWithDemoBC
-    elif config.demo_bc_weight:
-        from agents.ppo_bc import PPOWithDemoBC
-
-        cls = PPOWithDemoBC
     venv = make_vec_env(config.observer, config.seed, p.n_envs, p.shield, p.env_kwargs, config.subproc, p.residual,
                         p.margin_schedule, demo_label_options(config))
     eval_venv = None

@@ -127,7 +127,10 @@ class DemonstratorLabels(gym.Wrapper):
 
     def __init__(self, env: Any, **options: Any) -> None:
         super().__init__(env)
-        self.demonstrator = demonstrator_for(env, **options)
+        try:
+            self.demonstrator = demonstrator_for(env, **options)
+        except TypeError as exc:  # an option the controller does not take: say which input it was
+            raise TypeError(f"demonstrator_options: {exc}") from None
         self._obs: Any = None
         self._info: Any = None
 

@@ -290,11 +290,14 @@ def plan(config: TrainConfig) -> _Plan:
     if action_noise(dict(hp), 1) is not None and c.algo not in _off_policy_algos():
         raise TrainConfigError(f"hyperparameters noise_type / noise_std: {c.algo} takes no action noise "
                                f"({', '.join(_off_policy_algos())})")
-    action_mode = _check_env(c.observer, env_kwargs, shield, residual, margin_schedule)
+    labels = demo_label_options(c)
+    if labels is not None and (shield or residual > 0 or margin_schedule is not None):
+        raise TrainConfigError("demo_bc_weight: the demonstrator labels the bare env's action; pass --residual 0 "
+                               "--no-shield (and no margin schedule)")
+    # with labels the one env built here also builds the labeller: a bad option or action mode fails here
+    action_mode = _check_env(c.observer, env_kwargs, shield, residual, margin_schedule, labels)
     if c.demo_episodes:
         _check_demonstrations(c, action_mode, shield, residual, margin_schedule)
-    if c.algo == "ppo" and c.demo_bc_weight > 0:
-        _check_labeller(c, action_mode, shield, residual, margin_schedule, env_kwargs)
     run_dir = Path(c.run_dir) if c.run_dir is not None else Path(c.log_dir) / run_dir_name(
         c.algo, c.observer, c.seed, shield, residual, margin_schedule is not None)
     return _Plan(total, n_envs, shield, residual, policy, norm_kwargs, hp, run_dir, env_kwargs, margin_schedule)
@@ -309,11 +312,11 @@ def _whole(v: Any, name: str) -> int:
 
 
 def _check_env(observer: str, env_kwargs: dict[str, Any], shield: bool, residual: float,
-               margin_schedule: tuple[float, float] | None = None) -> str:
-    """Build the env once in this process: a bad observer or env option fails here, not in every worker. Returns its
-    ``action_mode``."""
+               margin_schedule: tuple[float, float] | None = None, demo_labels: dict[str, Any] | None = None) -> str:
+    """Build the env once in this process: a bad observer, env or labeller option fails here, not in every worker.
+    Returns its ``action_mode``."""
     try:
-        env = make_env_fn(observer, 0, shield, env_kwargs, residual, margin_schedule)()
+        env = make_env_fn(observer, 0, shield, env_kwargs, residual, margin_schedule, demo_labels)()
     except (ValueError, TypeError, KeyError) as exc:
         raise TrainConfigError(str(exc).splitlines()[0] if str(exc) else type(exc).__name__) from None
     mode = env.unwrapped.config["action_mode"]
@@ -371,21 +374,6 @@ def demo_label_options(config: TrainConfig) -> dict[str, Any] | None:
     return dict(DEFAULT_DEMONSTRATOR_OPTIONS if opts is None else opts)
 
 
-def _check_labeller(c: TrainConfig, action_mode: str, shield: bool, residual: float,
-                    margin_schedule: tuple[float, float] | None, env_kwargs: dict[str, Any]) -> None:
-    if shield or residual > 0 or margin_schedule is not None:
-        raise TrainConfigError("demo_bc_weight: the demonstrator labels the bare env's action; pass --residual 0 "
-                               "--no-shield (and no margin schedule)")
-    from agents.demonstrations import demonstrator_class
-
-    try:
-        demonstrator_class(action_mode)
-        env = make_env_fn(c.observer, 0, False, env_kwargs, 0.0, None, demo_label_options(c))()
-        env.close()
-    except (ValueError, TypeError) as exc:
-        raise TrainConfigError(f"demonstrator_options: {exc}") from None
-
-
 # --- training ------------------------------------------------------------------------------------------------
 def train(config: TrainConfig) -> Path:
     """Run (or, with ``config.resume``, continue) one training; return the run directory.
@@ -418,7 +406,7 @@ def train(config: TrainConfig) -> Path:
         "hyperparams": {k: repr(v) for k, v in p.hp.items()}, "normalize": p.normalize,
         **({"demo_episodes": config.demo_episodes} if config.demo_episodes else {}),
         **({"demo_bc_weight": float(config.demo_bc_weight)} if config.demo_bc_weight else {}),
-        **({"demonstrator_options": demo_label_options(config)} if demo_label_options(config) is not None else {}),
+        **({"demonstrator_options": labels} if (labels := demo_label_options(config)) is not None else {}),
     }
     init = None
     if config.init_from is not None:

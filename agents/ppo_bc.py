@@ -142,8 +142,12 @@ class PPOWithDemoBC(PPO):
 
     # --- update ---------------------------------------------------------------------------------------------
     def train(self) -> None:
-        """SB3's PPO update (``PPO.train``, the same order of operations) with the behaviour-cloning term added to
-        each minibatch's loss."""
+        """SB3's PPO update (``PPO.train`` as of SB3 2.9, the same order of operations) with the behaviour-cloning
+        term added to each minibatch's loss.
+
+        Written out because the term joins PPO's loss before the one backward pass; an SB3 release that changes
+        ``PPO.train`` does not reach this copy. ``pyproject.toml`` keeps SB3 below 3, and
+        ``tests/test_ppo_bc.py`` checks that ``W = 0`` gives the installed SB3's parameters step for step."""
         self.policy.set_training_mode(True)
         self._update_learning_rate(self.policy.optimizer)
         clip_range = self.clip_range(self._current_progress_remaining)  # type: ignore[operator]

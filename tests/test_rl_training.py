@@ -151,3 +151,15 @@ def test_ppo_with_online_bc_policies_arrive_on_a_short_held_out_track(seed):
     assert cfg["init_from"].endswith(f"m20_s{seed}")
     row = run_episode(Task(str(run), "dffrls-aekf", 100_000 + seed, json.dumps(SHORT)))
     assert row["termination"] == "arrived" and not row["overspeed_trip"], row
+
+
+def test_policy_with_the_controllers_own_labeller_arrives_alone_and_behind_the_shield():
+    # docs/rl.md §48: the online BC term with the rule-based controller's own 8 % margin as labeller, from
+    # dagger_m20_traction_s1; 99/100 held out with 0 trips alone, 100/100 at 2e-8 cost rate behind the shield
+    run = POLICIES / "ppo_bc_lab08_from_dagger_m20_traction_s1"
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
+    assert cfg["demo_bc_weight"] == 100.0 and cfg["demonstrator_options"] == {}
+    for spec in (str(run), f"{run}+shield"):
+        row = run_episode(Task(spec, "dffrls-aekf", 100_001, json.dumps(SHORT)))
+        assert row["termination"] == "arrived" and not row["overspeed_trip"], (spec, row)

@@ -163,3 +163,14 @@ def test_policy_with_the_controllers_own_labeller_arrives_alone_and_behind_the_s
     for spec in (str(run), f"{run}+shield"):
         row = run_episode(Task(spec, "dffrls-aekf", 100_001, json.dumps(SHORT)))
         assert row["termination"] == "arrived" and not row["overspeed_trip"], (spec, row)
+
+
+def test_policy_trained_from_a_fresh_network_with_the_bc_term_arrives():
+    # docs/rl.md §48: uuom-train --residual 0 --no-shield --demo-bc 100, ppo.yml as it is, no DAgger stage;
+    # seed 0 100/100 held out with 0 trips
+    run = POLICIES / "ppo_bc_scratch_traction_s0"
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
+    assert cfg["demo_bc_weight"] == 100.0 and cfg.get("init_from") is None
+    row = run_episode(Task(str(run), "dffrls-aekf", 100_000, json.dumps(SHORT)))
+    assert row["termination"] == "arrived" and not row["overspeed_trip"], row

@@ -21,6 +21,13 @@ STUDY_POLICIES = ROOT / "results" / "agents" / "observer_study_ppo" / "policies"
 SHORT = {"track_length_m": [50.0, 60.0]}
 
 
+def assert_arrives(spec: str, seed: int, env_kwargs: dict | None = None) -> None:
+    """One held-out episode of ``spec`` with ``dffrls-aekf`` (a short track unless ``env_kwargs`` are given) ends at
+    the station without an overspeed trip."""
+    row = run_episode(Task(spec, "dffrls-aekf", seed, json.dumps(SHORT if env_kwargs is None else env_kwargs)))
+    assert row["termination"] == "arrived" and not row["overspeed_trip"], (spec, row)
+
+
 def test_bare_ppo_smoke_with_default_hyperparameters(tmp_path):
     # agents/hyperparams/ppo.yml as it is (n_steps 1024 x 2 envs = one 2 048-step rollout and one update)
     run = train(TrainConfig(algo="ppo", residual=0.0, shield=False, observer="oracle", timesteps=2048, seed=5,
@@ -103,8 +110,7 @@ def test_station_cap_policy_arrives_on_a_short_held_out_track():
     assert cfg["residual"] == 0.0 and cfg["shield"] is False
     assert cfg["env_kwargs"]["speed_target_cap"] == "station"
     env_kwargs = {**cfg["env_kwargs"], **SHORT}
-    row = run_episode(Task(str(run), "dffrls-aekf", 100_000, json.dumps(env_kwargs)))
-    assert row["termination"] == "arrived" and not row["overspeed_trip"], row
+    assert_arrives(str(run), 100_000, env_kwargs)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -114,8 +120,7 @@ def test_span_policies_arrive_on_a_short_held_out_track(seed):
     cfg = json.loads((run / "config.json").read_text())
     assert cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["seed"] == seed
     assert cfg["env_kwargs"]["speed_target_range"] == [0.8, 1.3]
-    row = run_episode(Task(str(run), "dffrls-aekf", 100_000 + seed, json.dumps({**cfg["env_kwargs"], **SHORT})))
-    assert row["termination"] == "arrived" and not row["overspeed_trip"], row
+    assert_arrives(str(run), 100_000 + seed, {**cfg["env_kwargs"], **SHORT})
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -126,8 +131,7 @@ def test_dagger_policies_arrive_on_a_short_held_out_track(seed):
     cfg = json.loads((run / "config.json").read_text())
     assert cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["seed"] == seed and cfg["env_kwargs"] == {}
     assert cfg["dagger"]["demonstrator_options"] == {"speed_margin": 0.2}
-    row = run_episode(Task(str(run), "dffrls-aekf", 100_000 + seed, json.dumps(SHORT)))
-    assert row["termination"] == "arrived" and not row["overspeed_trip"], row
+    assert_arrives(str(run), 100_000 + seed)
 
 
 def test_ppo_from_dagger_policy_arrives_on_a_short_held_out_track():
@@ -136,8 +140,7 @@ def test_ppo_from_dagger_policy_arrives_on_a_short_held_out_track():
     cfg = json.loads((run / "config.json").read_text())
     assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
     assert cfg["init_from"].endswith("m20_s0") and cfg["selected_checkpoint"]["step"] == 100_000
-    row = run_episode(Task(str(run), "dffrls-aekf", 100_000, json.dumps(SHORT)))
-    assert row["termination"] == "arrived" and not row["overspeed_trip"], row
+    assert_arrives(str(run), 100_000)
 
 
 @pytest.mark.parametrize("seed", [1, 2])
@@ -149,8 +152,7 @@ def test_ppo_with_online_bc_policies_arrive_on_a_short_held_out_track(seed):
     assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
     assert cfg["demo_bc_weight"] == 100.0 and cfg["demonstrator_options"] == {"speed_margin": 0.2}
     assert cfg["init_from"].endswith(f"m20_s{seed}")
-    row = run_episode(Task(str(run), "dffrls-aekf", 100_000 + seed, json.dumps(SHORT)))
-    assert row["termination"] == "arrived" and not row["overspeed_trip"], row
+    assert_arrives(str(run), 100_000 + seed)
 
 
 def test_policy_with_the_controllers_own_labeller_arrives_alone_and_behind_the_shield():
@@ -161,8 +163,7 @@ def test_policy_with_the_controllers_own_labeller_arrives_alone_and_behind_the_s
     assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
     assert cfg["demo_bc_weight"] == 100.0 and cfg["demonstrator_options"] == {}
     for spec in (str(run), f"{run}+shield"):
-        row = run_episode(Task(spec, "dffrls-aekf", 100_001, json.dumps(SHORT)))
-        assert row["termination"] == "arrived" and not row["overspeed_trip"], (spec, row)
+        assert_arrives(spec, 100_001)
 
 
 def test_policy_trained_from_a_fresh_network_with_the_bc_term_arrives():
@@ -172,5 +173,4 @@ def test_policy_trained_from_a_fresh_network_with_the_bc_term_arrives():
     cfg = json.loads((run / "config.json").read_text())
     assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
     assert cfg["demo_bc_weight"] == 100.0 and cfg.get("init_from") is None
-    row = run_episode(Task(str(run), "dffrls-aekf", 100_000, json.dumps(SHORT)))
-    assert row["termination"] == "arrived" and not row["overspeed_trip"], row
+    assert_arrives(str(run), 100_000)

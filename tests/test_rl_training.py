@@ -174,3 +174,14 @@ def test_policy_trained_from_a_fresh_network_with_the_bc_term_arrives():
     assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
     assert cfg["demo_bc_weight"] == 100.0 and cfg.get("init_from") is None
     assert_arrives(str(run), 100_000)
+
+
+def test_policy_trained_under_an_action_std_ceiling_arrives():
+    # docs/rl.md §49: uuom-train --residual 0 --no-shield --demo-bc 100 --action-std-ceiling 0.37 0.05 300000;
+    # seed 1 100/100 held out with 0 trips (it tripped two trains without the ceiling)
+    run = POLICIES / "ppo_bc_ceiling_traction_s1"
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
+    assert cfg["demo_bc_weight"] == 100.0 and cfg.get("init_from") is None
+    assert cfg["action_std_ceiling"] == [0.37, 0.05, 300000]
+    assert_arrives(str(run), 100_001)

@@ -28,6 +28,14 @@ def assert_arrives(spec: str, seed: int, env_kwargs: dict | None = None) -> None
     assert row["termination"] == "arrived" and not row["overspeed_trip"], (spec, row)
 
 
+def bare_ppo_traction_config(run: Path) -> dict:
+    """A shipped policy's run record, asserting that it is PPO on the default env's traction action alone (no
+    residual, no shield, no env options)."""
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
+    return cfg
+
+
 def test_bare_ppo_smoke_with_default_hyperparameters(tmp_path):
     # agents/hyperparams/ppo.yml as it is (n_steps 1024 x 2 envs = one 2 048-step rollout and one update)
     run = train(TrainConfig(algo="ppo", residual=0.0, shield=False, observer="oracle", timesteps=2048, seed=5,
@@ -137,8 +145,7 @@ def test_dagger_policies_arrive_on_a_short_held_out_track(seed):
 def test_ppo_from_dagger_policy_arrives_on_a_short_held_out_track():
     # docs/rl.md §46: PPO at learning_rate 3e-5 continued from dagger_m20_traction_s0; 96/100 held out, 0 trips
     run = POLICIES / "ppo_lowlr_from_dagger_m20_traction_s0"
-    cfg = json.loads((run / "config.json").read_text())
-    assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
+    cfg = bare_ppo_traction_config(run)
     assert cfg["init_from"].endswith("m20_s0") and cfg["selected_checkpoint"]["step"] == 100_000
     assert_arrives(str(run), 100_000)
 
@@ -148,8 +155,7 @@ def test_ppo_with_online_bc_policies_arrive_on_a_short_held_out_track(seed):
     # docs/rl.md §47: PPO + the online behaviour-cloning term (W 100, learning_rate 3e-5) from
     # dagger_m20_traction_s<seed>; 100/100 and 99/100 held out, 0 trips
     run = POLICIES / f"ppo_bc_from_dagger_m20_traction_s{seed}"
-    cfg = json.loads((run / "config.json").read_text())
-    assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
+    cfg = bare_ppo_traction_config(run)
     assert cfg["demo_bc_weight"] == 100.0 and cfg["demonstrator_options"] == {"speed_margin": 0.2}
     assert cfg["init_from"].endswith(f"m20_s{seed}")
     assert_arrives(str(run), 100_000 + seed)
@@ -159,8 +165,7 @@ def test_policy_with_the_controllers_own_labeller_arrives_alone_and_behind_the_s
     # docs/rl.md §48: the online BC term with the rule-based controller's own 8 % margin as labeller, from
     # dagger_m20_traction_s1; 99/100 held out with 0 trips alone, 100/100 at 2e-8 cost rate behind the shield
     run = POLICIES / "ppo_bc_lab08_from_dagger_m20_traction_s1"
-    cfg = json.loads((run / "config.json").read_text())
-    assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
+    cfg = bare_ppo_traction_config(run)
     assert cfg["demo_bc_weight"] == 100.0 and cfg["demonstrator_options"] == {}
     for spec in (str(run), f"{run}+shield"):
         assert_arrives(spec, 100_001)
@@ -170,8 +175,7 @@ def test_policy_trained_from_a_fresh_network_with_the_bc_term_arrives():
     # docs/rl.md §48: uuom-train --residual 0 --no-shield --demo-bc 100, ppo.yml as it is, no DAgger stage;
     # seed 0 100/100 held out with 0 trips
     run = POLICIES / "ppo_bc_scratch_traction_s0"
-    cfg = json.loads((run / "config.json").read_text())
-    assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
+    cfg = bare_ppo_traction_config(run)
     assert cfg["demo_bc_weight"] == 100.0 and cfg.get("init_from") is None
     assert_arrives(str(run), 100_000)
 
@@ -180,8 +184,7 @@ def test_policy_trained_under_an_action_std_ceiling_arrives():
     # docs/rl.md §49: uuom-train --residual 0 --no-shield --demo-bc 100 --action-std-ceiling 0.37 0.05 300000;
     # seed 1 100/100 held out with 0 trips (it tripped two trains without the ceiling)
     run = POLICIES / "ppo_bc_ceiling_traction_s1"
-    cfg = json.loads((run / "config.json").read_text())
-    assert cfg["algo"] == "ppo" and cfg["residual"] == 0.0 and cfg["shield"] is False and cfg["env_kwargs"] == {}
+    cfg = bare_ppo_traction_config(run)
     assert cfg["demo_bc_weight"] == 100.0 and cfg.get("init_from") is None
     assert cfg["action_std_ceiling"] == [0.37, 0.05, 300000]
     assert_arrives(str(run), 100_001)

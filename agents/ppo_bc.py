@@ -14,7 +14,14 @@ demonstrator exactly where the policy goes, and the RL term moves it from there:
 ``L = L_PPO + W * mean_batch ||mu(s) - a_d(s)||^2``
 
 with ``mu(s)`` the Gaussian policy's mean and ``a_d`` the label, clipped to the action box. ``W = 0`` is PPO, step for
-step (the same minibatches, the same gradients). The labels live in the rollout buffer beside the observations
+step (the same minibatches, the same gradients).
+
+``bc_std_ref`` (optional) makes ``W`` the weight at that action std: each update uses ``W * bc_std_ref / sigma`` with
+``sigma`` the policy's current (state-independent) action std. Why: PPO's gradient on the mean grows as ``1/sigma``
+(``d log pi / d mu = (a - mu) / sigma^2`` with ``a - mu ~ sigma``) while the squared-distance term's does not, so
+under a falling std ceiling a fixed ``W`` loses its hold just as the policy settles (docs/rl.md §49: the last
+updates at ``sigma = 0.05`` undid the policy on four seeds of five); the scaled weight keeps the two in proportion.
+The labels live in the rollout buffer beside the observations
 (:class:`DemoLabelRolloutBuffer`) and are read from ``info["demo_action"]``; the saved model loads as plain PPO.
 """
 
@@ -78,18 +85,25 @@ class PPOWithDemoBC(PPO):
     pg_coef : float
         Factor on PPO's clipped policy-gradient loss, in [0, 1] (1: PPO's own; 0: the policy learns from the labels
         alone, online DAgger with PPO's critic still fitted -- the ablation that says what the RL term adds).
+    bc_std_ref : float or None
+        ``None``: the weight is ``W`` throughout. A number > 0: ``W`` is the weight at this action std and each update
+        uses ``W * bc_std_ref / sigma`` (``sigma``: the mean of the policy's action std at the update's start). Needs
+        a state-independent std (``use_sde=False``).
     **kwargs
         Everything else of :class:`stable_baselines3.PPO`.
 
     Attributes
     ----------
     bc_stats : dict
-        The last update's mean behaviour-cloning loss (unweighted) and the mean |label - action taken|.
+        The last update's mean behaviour-cloning loss (unweighted), the mean |label - action taken| and the weight
+        the update used.
     """
 
-    def __init__(self, policy: Any, env: Any, bc_weight: float = 1.0, pg_coef: float = 1.0, **kwargs: Any) -> None:
+    def __init__(self, policy: Any, env: Any, bc_weight: float = 1.0, pg_coef: float = 1.0,
+                 bc_std_ref: float | None = None, **kwargs: Any) -> None:
         self.bc_weight = self.check_weight(bc_weight)
         self.pg_coef = pg_coef
+        self.bc_std_ref = bc_std_ref
         self.bc_stats: dict[str, float] = {}
         self._labelling = False
         super().__init__(policy, env, **kwargs)
@@ -108,6 +122,14 @@ class PPOWithDemoBC(PPO):
         pg = self.pg_coef
         if isinstance(pg, bool) or not isinstance(pg, (int, float)) or not 0.0 <= pg <= 1.0:
             raise ValueError(f"pg_coef must be a number in [0, 1], got {pg!r}")
+        ref = getattr(self, "bc_std_ref", None)  # absent from a model saved before the option existed
+        self.bc_std_ref = ref
+        if ref is not None:
+            if isinstance(ref, bool) or not isinstance(ref, (int, float)) or not math.isfinite(ref) or ref <= 0:
+                raise ValueError(f"bc_std_ref must be None or a finite number > 0, got {ref!r}")
+            if self.use_sde:
+                raise ValueError("bc_std_ref scales the weight by the policy's state-independent action std: "
+                                 "not with use_sde=True")
         self.rollout_buffer_class = DemoLabelRolloutBuffer  # also for a model loaded from a plain PPO zip
         self._labelling = False
         super()._setup_model()
@@ -141,6 +163,13 @@ class PPOWithDemoBC(PPO):
         super()._update_info_buffer(infos, dones)
 
     # --- update ---------------------------------------------------------------------------------------------
+    def current_bc_weight(self) -> float:
+        """The weight the next update uses: ``W``, or ``W * bc_std_ref / sigma`` with ``bc_std_ref`` set."""
+        if self.bc_std_ref is None or self.bc_weight == 0:
+            return self.bc_weight
+        sigma = float(th.exp(self.policy.log_std.detach()).mean())  # type: ignore[operator]
+        return self.bc_weight * float(self.bc_std_ref) / sigma
+
     def train(self) -> None:
         """SB3's PPO update (``PPO.train`` as of SB3 2.9, the same order of operations) with the behaviour-cloning
         term added to each minibatch's loss.
@@ -155,6 +184,7 @@ class PPOWithDemoBC(PPO):
                          if self.clip_range_vf is not None else None)
         low = th.as_tensor(self.action_space.low, device=self.device)
         high = th.as_tensor(self.action_space.high, device=self.device)
+        bc_weight = self.current_bc_weight()
         entropy_losses, pg_losses, value_losses, clip_fractions, bc_losses = [], [], [], [], []
         approx_kl_divs: list[float] = []
         continue_training = True
@@ -179,12 +209,12 @@ class PPOWithDemoBC(PPO):
                 entropy_loss = -th.mean(-log_prob) if entropy is None else -th.mean(entropy)
                 entropy_losses.append(entropy_loss.item())
                 loss = self.pg_coef * policy_loss + self.ent_coef * entropy_loss + self.vf_coef * value_loss
-                if self.bc_weight > 0:
+                if bc_weight > 0:
                     mean = self.policy.get_distribution(data.observations).distribution.mean
                     target = th.clamp(data.demo_actions, low, high)
                     bc_loss = th.mean(th.sum((mean - target) ** 2, dim=-1))
                     bc_losses.append(bc_loss.item())
-                    loss = loss + self.bc_weight * bc_loss
+                    loss = loss + bc_weight * bc_loss
                 with th.no_grad():
                     log_ratio = log_prob - data.old_log_prob
                     approx_kl_div = th.mean((th.exp(log_ratio) - 1) - log_ratio).cpu().numpy()
@@ -204,7 +234,9 @@ class PPOWithDemoBC(PPO):
             "bc_loss": float(np.mean(bc_losses)) if bc_losses else float("nan"),
             "label_gap": float(np.mean(np.abs(np.clip(buf.actions, self.action_space.low, self.action_space.high)
                                               - buf.demo_actions))),
+            "bc_weight": bc_weight,
         }
+        self.logger.record("train/bc_weight", bc_weight)
         self.logger.record("train/entropy_loss", np.mean(entropy_losses))
         self.logger.record("train/policy_gradient_loss", np.mean(pg_losses))
         self.logger.record("train/value_loss", np.mean(value_losses))

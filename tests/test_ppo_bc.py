@@ -124,6 +124,42 @@ def test_pg_coef_is_a_hyperparameter_of_the_bc_learner_only(tmp_path):
         plan(TrainConfig(**base))
 
 
+def test_std_referenced_weight_is_the_weight_scaled_by_ref_over_sigma():
+    """``bc_std_ref``: one update at action std 1 with ``W = 1, ref = 2`` is the update of ``W = 2``, step for step;
+    at std 0.1 the same options give ``W = 20``."""
+    a = PPOWithDemoBC("MlpPolicy", _venv(), bc_weight=1.0, bc_std_ref=2.0, **PPO_KW)
+    b = PPOWithDemoBC("MlpPolicy", _venv(), bc_weight=2.0, **PPO_KW)
+    assert float(th.exp(a.policy.log_std.detach()).mean()) == 1.0  # SB3's log_std_init = 0
+    for m in (a, b):
+        m.set_random_seed(0)
+        m.learn(128)  # one rollout of 64 steps x 2 envs: one update
+    for x, y in zip(_params(a), _params(b)):
+        assert th.equal(x, y)
+    assert a.bc_stats["bc_weight"] == b.bc_stats["bc_weight"] == 2.0
+    with th.no_grad():
+        a.policy.log_std.fill_(np.log(0.1))
+    assert a.current_bc_weight() == pytest.approx(20.0, rel=1e-5)
+    b.bc_weight = 0.0
+    assert b.current_bc_weight() == 0.0
+
+
+@pytest.mark.parametrize("ref", [0.0, -1.0, float("inf"), True, "0.3"])
+def test_bad_bc_std_ref_is_refused(ref):
+    with pytest.raises(ValueError, match="bc_std_ref must be"):
+        PPOWithDemoBC("MlpPolicy", _venv(), bc_std_ref=ref, **PPO_KW)
+
+
+def test_bc_std_ref_is_refused_with_state_dependent_noise():
+    with pytest.raises(ValueError, match="use_sde"):
+        PPOWithDemoBC("MlpPolicy", _venv(), bc_std_ref=0.37, use_sde=True, **PPO_KW)
+
+
+def test_bc_std_ref_is_a_hyperparameter_of_the_bc_learner(tmp_path):
+    base = dict(algo="ppo", residual=0.0, shield=False, observer="oracle", timesteps=100, run_dir=tmp_path / "r",
+                env_kwargs=dict(SHORT), hyperparams=["bc_std_ref=0.37"])
+    assert plan(TrainConfig(demo_bc_weight=100.0, **base)).hp["bc_std_ref"] == 0.37
+
+
 def test_missing_labels_are_named():
     model = PPOWithDemoBC("MlpPolicy", _venv(labels=False), bc_weight=1.0, **PPO_KW)
     with pytest.raises(KeyError, match="DemonstratorLabels"):

@@ -9,6 +9,8 @@ Example::
 Reads ``<run>/tb/**/events.out.tfevents.*`` and plots, against environment steps: the training-episode success
 rate and overspeed-trip rate (``uuom/``, running mean over the last 50 training episodes, see
 :mod:`agents.callbacks`), the mean episode return (``rollout/ep_rew_mean``) and the simulated duration of the training episodes (``uuom/trip_time_s``: every ending, not only arrivals).
+``--tags`` plots other TensorBoard scalars instead, one panel each (e.g. ``train/approx_kl train/std
+train/clip_fraction`` for the size of PPO's updates; a KL panel is drawn on a log scale).
 ``--csv`` writes the same series as rows ``run,tag,step,value``; ``--print`` prints the last value of each tag.
 """
 
@@ -54,14 +56,16 @@ def read_scalars(run_dir: Path) -> dict[str, tuple[list[int], list[float]]]:
     return {t: (sorted(d), [d[s] for s in sorted(d)]) for t, d in merged.items()}
 
 
-def plot(runs: list[tuple[str, dict[str, tuple[list[int], list[float]]]]], path: Path, title: str) -> None:
+def plot(runs: list[tuple[str, dict[str, tuple[list[int], list[float]]]]], path: Path, title: str,
+         tags: tuple[tuple[str, str], ...] = TAGS) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(TAGS), figsize=(4.3 * len(TAGS), 3.8))
-    for ax, (tag, name) in zip(axes, TAGS):
+    fig, axes = plt.subplots(1, len(tags), figsize=(4.3 * len(tags), 3.8), squeeze=False)
+    axes = axes[0]
+    for ax, (tag, name) in zip(axes, tags):
         for label, series in runs:
             if tag in series:
                 steps, vals = series[tag]
@@ -71,6 +75,8 @@ def plot(runs: list[tuple[str, dict[str, tuple[list[int], list[float]]]]], path:
         ax.grid(alpha=0.3)
         if "rate" in tag:
             ax.set_ylim(-0.03, 1.03)
+        if "approx_kl" in tag:  # spans decades: 0.01 is a PPO update inside its trust region, 10 is far outside
+            ax.set_yscale("log")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, fontsize=8, loc="lower center", ncol=max(len(labels), 1), frameon=False)
     fig.suptitle(title, fontsize=10)
@@ -88,14 +94,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--csv", type=Path, default=None, help="also write the series as CSV")
     ap.add_argument("--title", default="UUOM-Track-v0: bare PPO (no residual, no shield), observer dffrls-aekf")
     ap.add_argument("--print", action="store_true", dest="print_last", help="print the last value of each tag")
+    ap.add_argument("--tags", nargs="+", default=None, metavar="TAG",
+                    help="TensorBoard scalar tags to plot instead of the default four (e.g. train/approx_kl train/std)")
     args = ap.parse_args(argv)
+    names = dict(TAGS)
+    tags = tuple((t, names.get(t, t)) for t in args.tags) if args.tags else TAGS
     labels = args.labels or [r.name for r in args.runs]
     if len(labels) != len(args.runs):
         raise SystemExit(f"--labels needs {len(args.runs)} labels, got {len(labels)}")
     runs = [(lab, read_scalars(r)) for lab, r in zip(labels, args.runs)]
+    for tag in args.tags or ():  # the default panels skip what a run does not log; a named tag must exist
+        if not any(tag in series for _, series in runs):
+            known = sorted({t for _, series in runs for t in series})
+            raise SystemExit(f"--tags: no run logs {tag!r}; the runs log {', '.join(known)}")
     if args.print_last:
         for lab, series in runs:
-            last = {t: series[t][1][-1] for t, _ in TAGS if t in series}
+            last = {t: series[t][1][-1] for t, _ in tags if t in series}
             steps = max((s[0][-1] for s in series.values() if s[0]), default=0)
             print(f"{lab} @ {steps} steps: " + ", ".join(f"{t}={v:.3g}" for t, v in last.items()))
     if args.csv:
@@ -104,12 +118,12 @@ def main(argv: list[str] | None = None) -> int:
             w = csv.writer(fh)
             w.writerow(["run", "tag", "step", "value"])
             for lab, series in runs:
-                for tag, _ in TAGS:
+                for tag, _ in tags:
                     if tag in series:
                         for s, v in zip(*series[tag]):
                             w.writerow([lab, tag, s, f"{v:.6g}"])
     if args.out:
-        plot(runs, args.out, args.title)
+        plot(runs, args.out, args.title, tags)
         print(f"wrote {args.out}")
     return 0
 

@@ -16,7 +16,9 @@ a residual or a margin schedule is refused (``uuom-evaluate`` runs those). Print
 ``--trace N`` also prints the episode's last N steps, with ``--trace-obs NAME ...`` named observation entries
 beside them and with ``--critic`` an off-policy learner's critic, ``min(Q1, Q2)`` of the policy's action and of
 -1, 0, +1 (SAC/TD3: is the freeze the critic's or the actor's?); ``--sample SEED`` runs the policy on sampled actions
-instead of its mean (what its training episodes did). Used in docs/rl.md to see what a policy's *mean* action does
+instead of its mean (what its training episodes did); ``--compare OTHER`` also computes another policy's (e.g. the next
+checkpoint's) mean action on the same observations and prints the mean and largest |difference| of the clipped
+commands per episode: how far one stretch of training moved the policy where it drives. Used in docs/rl.md to see what a policy's *mean* action does
 (the training curves show the noisy policy).
 """
 
@@ -52,6 +54,30 @@ def critic_values(policy, obs: np.ndarray, action: float) -> list[float]:
     return torch.min(*q).squeeze(-1).tolist()
 
 
+def load_bare_policy(run_dir: Path, no_normalize: bool):
+    """A policy that acts alone in the bare env (:class:`agents.evaluation.ModelPolicy`), or ``SystemExit`` naming
+    what is missing or why it cannot run here."""
+    from agents.evaluation import ModelPolicy
+
+    if not (run_dir / "model.zip").is_file():
+        raise SystemExit(f"no model at {run_dir / 'model.zip'}")
+    if not (run_dir / "vecnormalize.pkl").is_file() and not no_normalize:
+        # Without its observation statistics a policy sees garbage and "fails" for no reason of its own.
+        raise SystemExit(f"no VecNormalize statistics at {run_dir / 'vecnormalize.pkl'}; "
+                         f"pass --no-normalize if the policy had none")
+    try:
+        policy = ModelPolicy(run_dir)
+    except FileNotFoundError as exc:
+        raise SystemExit(str(exc)) from None
+    if policy.shield or policy.residual or policy.margin_schedule:
+        # the env here is the bare one: the policy's action alone would be judged, not the controller it is part of
+        raise SystemExit(f"{run_dir} acts through the shield, a residual or a margin schedule; run it with "
+                         f"uuom-evaluate, which wraps it as it was trained")
+    if no_normalize:
+        policy.vecnorm = None
+    return policy
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("target", type=Path, help="run directory, checkpoint folder, or the model.zip in one")
@@ -70,30 +96,26 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sample", type=int, default=None, metavar="SEED",
                     help="sample the actions from the policy's distribution (torch seeded once with SEED) instead of "
                          "taking its mean")
+    ap.add_argument("--compare", type=Path, default=None, metavar="OTHER",
+                    help="another run directory or checkpoint folder: print how far its mean action is from the "
+                         "policy's on the states the policy drives")
     args = ap.parse_args(argv)
     import gymnasium as gym
     import torch
 
     import uuom_gym  # noqa: F401
-    from agents.evaluation import ModelPolicy, run_config_path
+    from agents.evaluation import run_config_path
 
     run_dir = args.target.parent if args.target.name == "model.zip" else args.target
-    if not (run_dir / "model.zip").is_file():
-        raise SystemExit(f"no model at {run_dir / 'model.zip'}")
-    if not (run_dir / "vecnormalize.pkl").is_file() and not args.no_normalize:
-        # Without its observation statistics a policy sees garbage and "fails" for no reason of its own.
-        raise SystemExit(f"no VecNormalize statistics at {run_dir / 'vecnormalize.pkl'}; "
-                         f"pass --no-normalize if the policy had none")
-    try:
-        policy = ModelPolicy(run_dir)
-    except FileNotFoundError as exc:
-        raise SystemExit(str(exc)) from None
-    if policy.shield or policy.residual or policy.margin_schedule:
-        # the env here is the bare one: the policy's action alone would be judged, not the controller it is part of
-        raise SystemExit(f"{run_dir} acts through the shield, a residual or a margin schedule; run it with "
-                         f"uuom-evaluate, which wraps it as it was trained")
-    if args.no_normalize:
-        policy.vecnorm = None
+    policy = load_bare_policy(run_dir, args.no_normalize)
+    other = None
+    if args.compare is not None:
+        other = load_bare_policy(args.compare.parent if args.compare.name == "model.zip" else args.compare,
+                                 args.no_normalize)
+        other_name = other.run_dir.name
+        if other.obs_shape != policy.obs_shape:
+            raise SystemExit(f"--compare: {args.compare} takes observations of shape {other.obs_shape}, "
+                             f"{run_dir} of {policy.obs_shape}")
     cfg_path = run_config_path(run_dir)
     trained = json.loads(cfg_path.read_text()) if cfg_path.is_file() else {}
     observer = args.observer or trained.get("observer", "dffrls-aekf")
@@ -117,9 +139,13 @@ def main(argv: list[str] | None = None) -> int:
                              f"the env's are {', '.join(names)}")
         shown = [names.index(n) for n in args.trace_obs]
         obs, info = env.reset(seed=seed)
-        speed, cmd, lim, rows = [], [], [], []
+        speed, cmd, lim, rows, gaps = [], [], [], [], []
         for _ in range(args.max_steps):
+            if other is not None:  # before the policy's own act: a sampled run's torch draws stay the same
+                b = float(np.clip(other.act(obs, info)[0], -1.0, 1.0))
             a = policy.act(obs, info, deterministic=args.sample is None)
+            if other is not None:
+                gaps.append(abs(float(np.clip(a[0], -1.0, 1.0)) - b))
             seen = [float(obs[i]) for i in shown]
             if critic is not None:
                 seen += critic_values(policy, obs, float(a[0]))
@@ -142,6 +168,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{info['position_m']:.1f} / {info['track_length_m']:.0f} m, load {info['load_kg']:.0f} kg, "
             f"speed mean {np.mean(speed):.2f} max {np.max(speed):.2f} m/s, true limit mean {np.mean(lim):.2f}, "
             f"command mean {np.mean(cmd):.2f}"
+            + (f", |command - {other_name}'s| mean {np.mean(gaps):.3f} max {np.max(gaps):.3f}" if gaps else "")
         )
         if rows:
             print("  " + " ".join(f"{c:>14}" for c in columns))

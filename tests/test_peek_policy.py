@@ -79,3 +79,22 @@ def test_the_critic_is_refused_for_an_on_policy_learner_and_unknown_names_are_na
     bad = subprocess.run([*SCRIPT, str(ppo), "--seeds", "100000", "--max-steps", "5", "--trace-obs", "speed"],
                          capture_output=True, text=True, cwd=ROOT)
     assert bad.returncode != 0 and "give --trace N too" in bad.stderr
+
+
+def test_compare_prints_how_far_another_policy_acts_on_the_same_states():
+    """A policy compared with itself is 0 apart; with another seed of its recipe, apart; the episode is the target's
+    (the same ending line as without ``--compare``)."""
+    a = ROOT / "results" / "rl" / "policies" / "ppo_bc_ceiling_traction_s1"
+    b = ROOT / "results" / "rl" / "policies" / "ppo_bc_ceiling_traction_s0"
+    base = [*SCRIPT, str(a), "--seeds", "100000", "--max-steps", "200"]
+    plain = subprocess.run(base, capture_output=True, text=True, check=True, cwd=ROOT).stdout.splitlines()[0]
+    same = subprocess.run([*base, "--compare", str(a)], capture_output=True, text=True, check=True,
+                          cwd=ROOT).stdout.splitlines()[0]
+    other = subprocess.run([*base, "--compare", str(b / "model.zip")], capture_output=True, text=True, check=True,
+                           cwd=ROOT).stdout.splitlines()[0]
+    assert same == plain + ", |command - ppo_bc_ceiling_traction_s1's| mean 0.000 max 0.000"
+    assert other.startswith(plain + ", |command - ppo_bc_ceiling_traction_s0's| mean ")
+    assert float(other.rsplit("max ", 1)[1]) > 0.01
+    bad = subprocess.run([*base, "--compare", str(ROOT / "results" / "rl" / "policies" / "ppo_margin_004_012_300k_s0")],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert bad.returncode != 0 and "uuom-evaluate" in bad.stderr

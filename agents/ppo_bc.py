@@ -21,6 +21,8 @@ step (the same minibatches, the same gradients).
 (``d log pi / d mu = (a - mu) / sigma^2`` with ``a - mu ~ sigma``) while the squared-distance term's does not, so
 under a falling std ceiling a fixed ``W`` loses its hold just as the policy settles (docs/rl.md §49: the last
 updates at ``sigma = 0.05`` undid the policy on four seeds of five); the scaled weight keeps the two in proportion.
+Measured (docs/rl.md §50) it does not help: the late jumps are the BC term's own large steps at a small ``sigma``
+(approximate KL ~5 nats per update), which a larger weight makes larger; the option stays so that probe can be rebuilt.
 The labels live in the rollout buffer beside the observations
 (:class:`DemoLabelRolloutBuffer`) and are read from ``info["demo_action"]``; the saved model loads as plain PPO.
 """

@@ -141,11 +141,9 @@ def main(argv: list[str] | None = None) -> int:
         obs, info = env.reset(seed=seed)
         speed, cmd, lim, rows, gaps = [], [], [], [], []
         for _ in range(args.max_steps):
-            if other is not None:  # before the policy's own act: a sampled run's torch draws stay the same
-                b = float(np.clip(other.act(obs, info)[0], -1.0, 1.0))
             a = policy.act(obs, info, deterministic=args.sample is None)
-            if other is not None:
-                gaps.append(abs(float(np.clip(a[0], -1.0, 1.0)) - b))
+            if other is not None:  # the other policy's mean draws nothing: a sampled run's actions stay the same
+                gaps.append(abs(float(np.clip(a[0], -1.0, 1.0)) - float(np.clip(other.act(obs, info)[0], -1.0, 1.0))))
             seen = [float(obs[i]) for i in shown]
             if critic is not None:
                 seen += critic_values(policy, obs, float(a[0]))

@@ -28,10 +28,15 @@ def step_of(model_dir: Path) -> int | None:
 
 def candidates(run_dir: Path, min_step: int = 0, every: int = 0) -> list[Path]:
     """The run's checkpoint folders with ``step >= min_step`` (and a multiple of ``every`` if > 0), then its final
-    model. Raises ``FileNotFoundError`` when there is none."""
+    model. Raises ``FileNotFoundError`` when there is none, and ``ValueError`` when ``every`` matches none of the
+    checkpoints at or after ``min_step`` (a run started with ``--init-from`` saves at its first step plus multiples
+    of its checkpoint interval: choosing the final model alone there would be a silent mistake)."""
     run_dir = Path(run_dir)
-    found = [c.path for c in list_checkpoints(run_dir / "checkpoints")
-             if c.steps >= min_step and (every <= 0 or c.steps % every == 0)]
+    saved = [c for c in list_checkpoints(run_dir / "checkpoints") if c.steps >= min_step]
+    found = [c.path for c in saved if every <= 0 or c.steps % every == 0]
+    if saved and not found:
+        raise ValueError(f"{run_dir}: --every {every} matches none of its checkpoints (steps "
+                         f"{', '.join(str(c.steps) for c in saved)}); pass --every 0 or a divisor of those steps")
     if (run_dir / "model.zip").is_file():
         found.append(run_dir)
     if not found:

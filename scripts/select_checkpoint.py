@@ -48,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
     for run in args.runs:
         try:
             cands = candidates(run, args.min_step, args.every)
-        except FileNotFoundError as exc:
+        except (FileNotFoundError, ValueError) as exc:
             ap.error(str(exc))
         observer = json.loads(run_config_path(run).read_text()).get("observer", "dffrls-aekf")
         labels = {controller_label(str(c)): c for c in cands}

@@ -39,6 +39,15 @@ def test_candidates_filter_by_step_and_end_with_the_final_model(tmp_path):
         candidates(tmp_path / "empty")
 
 
+def test_an_every_that_matches_no_checkpoint_is_an_error_naming_their_steps(tmp_path):
+    """A run continued with ``--init-from`` from step 56 saves at 156, 256, ...: ``every=100`` must not quietly leave
+    the final model as the only candidate."""
+    run = _fake_run(tmp_path, steps=(156, 256, 356))
+    with pytest.raises(ValueError, match=r"--every 100 matches none of its checkpoints \(steps 156, 256, 356\)"):
+        candidates(run, every=100)
+    assert [step_of(c) for c in candidates(run)] == [156, 256, 356, None]
+
+
 def test_a_checkpoint_folder_is_described_by_its_runs_config_and_labelled_by_it(tmp_path):
     run = _fake_run(tmp_path)
     ck = run / "checkpoints" / "step_0000000200"

@@ -11,7 +11,8 @@ rate and overspeed-trip rate (``uuom/``, running mean over the last 50 training 
 :mod:`agents.callbacks`), the mean episode return (``rollout/ep_rew_mean``) and the simulated duration of the training episodes (``uuom/trip_time_s``: every ending, not only arrivals).
 ``--tags`` plots other TensorBoard scalars instead, one panel each (e.g. ``train/approx_kl train/std
 train/clip_fraction`` for the size of PPO's updates; a KL panel is drawn on a log scale).
-``--csv`` writes the same series as rows ``run,tag,step,value``; ``--print`` prints the last value of each tag.
+``--csv`` writes the same series as rows ``run,tag,step,value``; ``--print`` prints the last value of each tag;
+``--median-from STEP`` prints, per run and tag, the median, 5-95 % range and largest value from that step on.
 """
 
 from __future__ import annotations
@@ -96,6 +97,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--print", action="store_true", dest="print_last", help="print the last value of each tag")
     ap.add_argument("--tags", nargs="+", default=None, metavar="TAG",
                     help="TensorBoard scalar tags to plot instead of the default four (e.g. train/approx_kl train/std)")
+    ap.add_argument("--median-from", type=int, default=None, metavar="STEP",
+                    help="print each tag's median, 5-95 %% range and largest value over the points at or after STEP")
     args = ap.parse_args(argv)
     names = dict(TAGS)
     tags = tuple((t, names.get(t, t)) for t in args.tags) if args.tags else TAGS
@@ -112,6 +115,16 @@ def main(argv: list[str] | None = None) -> int:
             last = {t: series[t][1][-1] for t, _ in tags if t in series}
             steps = max((s[0][-1] for s in series.values() if s[0]), default=0)
             print(f"{lab} @ {steps} steps: " + ", ".join(f"{t}={v:.3g}" for t, v in last.items()))
+    if args.median_from is not None:
+        import numpy as np
+
+        for lab, series in runs:
+            for tag, _ in tags:
+                vals = [v for st, v in zip(*series[tag]) if st >= args.median_from] if tag in series else []
+                if vals:
+                    p5, med, p95 = np.percentile(vals, [5, 50, 95])
+                    print(f"{lab} {tag} from {args.median_from}: median {med:.3g} (5-95 % {p5:.3g}-{p95:.3g}), "
+                          f"max {max(vals):.3g}, {len(vals)} points")
     if args.csv:
         args.csv.parent.mkdir(parents=True, exist_ok=True)
         with args.csv.open("w", newline="") as fh:

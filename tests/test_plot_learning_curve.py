@@ -47,3 +47,9 @@ def test_default_panels_skip_what_a_run_does_not_log(tmp_path):
 def test_a_tag_no_run_logs_is_named_with_the_ones_they_do(tmp_path):
     with pytest.raises(SystemExit, match="no run logs 'train/nope'.*train/approx_kl"):
         plot_learning_curve.main([str(_run(tmp_path, "a", [0.1])), "--tags", "train/nope"])
+
+
+def test_median_from_summarises_the_points_from_a_step_on(tmp_path, capsys):
+    run = _run(tmp_path, "a", [100.0, 1.0, 2.0, 3.0])  # steps 2048, 4096, 6144, 8192
+    assert plot_learning_curve.main([str(run), "--tags", "train/approx_kl", "--median-from", "4096"]) == 0
+    assert "a train/approx_kl from 4096: median 2 (5-95 % 1.1-2.9), max 3, 3 points" in capsys.readouterr().out

@@ -339,6 +339,15 @@ class DFFRLSAEKFConfig:
         does not make ``fused`` recover from the fault test's bias (docs/estimation.md, session 49).
     residual_gate_persist_s : float
         See ``residual_gate_sigma``.
+    gyro_witness_deg : float
+        0 (``dffrls-aekf``'s default): off, bit for bit. > 0 (``fused`` only; the geometry bank refuses it): the gyro
+        witness (:func:`~estimators.dffrls_aekf_kernel.witness`): the pitch-rate gyro, integrated, is the independent
+        witness of a grade change. Where the slope layer's grade moves this far from it (an accelerometer bias or
+        step reads exactly like a grade change to the accelerometer and the encoder) the regression holds until the
+        train has moved a slope window further. A trace without ``gyro_radps`` runs as without it.
+    gyro_witness_tau_s : float
+        The time constant of the pull of the gyro's integrated pitch towards the slope layer's grade (bounds the
+        gyro bias's drift: 0.0005 rad/s gives 0.06° at 2 s).
     """
 
     use_accel: bool = True
@@ -401,6 +410,11 @@ class DFFRLSAEKFConfig:
     rate_from_trace: bool = False
     residual_gate_sigma: float = 0.0
     residual_gate_persist_s: float = 5.0
+    gyro_witness_deg: float = 0.0
+    gyro_witness_tau_s: float = 2.0
+    gyro_witness_hold_s: float = 1.0
+    gyro_witness_persist_s: float = 10.0
+    gyro_witness_settle_s: float = 3.0
     clamp_projection: bool = True
     accel_regressor: bool = False
     chain_length_factors: tuple[float, ...] = (0.7, 0.85, 1.0, 1.2, 1.4)
@@ -415,13 +429,15 @@ class DFFRLSAEKFConfig:
                     "gate_sigma", "history_step_m", "sigma", "residual_std_mps2", "mu_prior_std", "mu_max",
                     "slope_ready_std_rad", "gap_s", "dt_nominal_s", "max_slope_spread_rad",
                     "max_geometry_ambiguity_rad", "prior_curvature_std_per_m", "max_curvature_per_m",
-                    "residual_gate_persist_s")
+                    "residual_gate_persist_s", "gyro_witness_tau_s",
+                    "gyro_witness_persist_s")
         non_negative = ("mass_forgetting_ratio", "grade_std_rad_per_sqrt_m", "sway_damping_ratio", "min_speed_mps",
                         "min_accel_mps2", "offset_forgetting_ratio", "accel_bias_std_mps2",
                         "blend_prior_std", "min_traction_fraction", "settle_s", "relock_after", "max_early_evidence",
                         "grade_curvature_std", "weak_accel_noise_factor", "torque_jump_fraction", "accel_jump_mps2",
                         "jump_noise_factor", "early_blend_kept", "smoothing_lag_s", "accel_std_per_noise",
-                        "evidence_min_disagreement_rad", "residual_gate_sigma")
+                        "evidence_min_disagreement_rad", "residual_gate_sigma", "gyro_witness_deg",
+                        "gyro_witness_hold_s", "gyro_witness_settle_s")
         if self.point_min_accel_mps2 is not None:  # None: the common gate
             non_negative += ("point_min_accel_mps2",)
         for name in positive + non_negative:
@@ -529,6 +545,11 @@ class DFFRLSAEKFConfig:
         C[kern.RATE_R] = rate_r
         C[kern.RES_GATE2] = self.residual_gate_sigma**2
         C[kern.RES_PERSIST] = self.residual_gate_persist_s
+        C[kern.WIT_THR] = math.radians(self.gyro_witness_deg)
+        C[kern.WIT_TAU] = self.gyro_witness_tau_s
+        C[kern.WIT_HOLD] = self.gyro_witness_hold_s
+        C[kern.WIT_PERSIST] = self.gyro_witness_persist_s
+        C[kern.WIT_SETTLE] = self.gyro_witness_settle_s
         C[kern.RELOCK] = float(max(1, round(self.relock_after / rate_r)))
         C[kern.STUCK_N] = float(max(1, round(self.stuck_repeats / rate_r))) if self.stuck_repeats > 0 else 0.0
         R0 = self.speed_std_mps**2 / rate_r
@@ -607,6 +628,16 @@ def block_columns(name: str, torque_nm, speed_mps, accel_mps2) -> list[np.ndarra
     return cols
 
 
+def gyro_column(gyro_radps, n: int) -> np.ndarray:
+    """The gyro samples for the witness as a contiguous float array of length ``n`` (all NaN when there is none)."""
+    if gyro_radps is None:
+        return np.full(n, math.nan)
+    g = np.ascontiguousarray(gyro_radps, dtype=np.float64)
+    if g.shape != (n,):
+        raise ValueError(f"gyro_radps must be 1-D with the block's {n} samples, got shape {g.shape}")
+    return g
+
+
 def median_step_s(t_s: np.ndarray) -> float | None:
     """The median of a trace's positive, finite sample steps (None with fewer than 10 of them)."""
     d = np.diff(np.asarray(t_s, dtype=np.float64))
@@ -653,6 +684,7 @@ class DFFRLSAEKF(Estimator):
         self.config = dataclasses.replace(config or DFFRLSAEKFConfig(), **options)
         self.C = self.config.settings(self.vehicle)
         self._configured_C = self.C.copy()  # what run() restores after a trace at another rate
+        self._witness = self.config.gyro_witness_deg > 0.0
         self.S = np.zeros(kern.N_S)
         self.H = np.zeros(kern.N_H)
         self._out = np.zeros(kern.N_EST)
@@ -665,12 +697,18 @@ class DFFRLSAEKF(Estimator):
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
         kern.step(self.S, self.H, self.C, float(torque_nm), float(speed_mps), float(accel_mps2), float(dt_s))
+        if self._witness:
+            kern.witness(self.S, self.C, float(gyro_radps), float(dt_s))
         return self.estimate
 
     def update_block(self, torque_nm, speed_mps, accel_mps2, dt_s, motor_speed_radps=None, gyro_radps=None,
                      accel_normal_mps2=None) -> Estimate:
         """The samples of a block through the compiled step in one call; the same state as :meth:`update` each."""
-        kern.steps(self.S, self.H, self.C, *block_columns(self.name, torque_nm, speed_mps, accel_mps2), float(dt_s))
+        cols = block_columns(self.name, torque_nm, speed_mps, accel_mps2)
+        if self._witness:
+            kern.steps_witnessed(self.S, self.H, self.C, *cols, gyro_column(gyro_radps, len(cols[0])), float(dt_s))
+        else:
+            kern.steps(self.S, self.H, self.C, *cols, float(dt_s))
         return self.estimate
 
     @property
@@ -691,7 +729,11 @@ class DFFRLSAEKF(Estimator):
             self.adopt_rate(trace["t_s"])
             self.reset()
         t, dts, cols, out = batch_arrays(trace, t_prev_s, kern.N_EST)
-        kern.run(self.S, self.H, self.C, *cols, dts, out)
+        if self._witness:
+            gyro = trace["gyro_radps"] if "gyro_radps" in trace else None
+            kern.run_witnessed(self.S, self.H, self.C, *cols, gyro_column(gyro, len(t)), dts, out)
+        else:
+            kern.run(self.S, self.H, self.C, *cols, dts, out)
         rows = out.T
         extras = {"mu": rows[4], "mu_std": rows[5], "nis": rows[7]}
         if self.config.fused:

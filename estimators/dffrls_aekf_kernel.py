@@ -46,7 +46,8 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
     SMOOTH_L, SMOOTH_NB, ACC_PER_NOISE, F_PREV, NOISE_F, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
-    EVID_MIN, DISAGREE, RATE_R, REFERENCE_DT_S, RES_GATE2, RES_PERSIST, RES_SKIP,
+    EVID_MIN, DISAGREE, RATE_R, REFERENCE_DT_S, RES_GATE2, RES_PERSIST, RES_SKIP, WIT_THR, WIT_TAU, WIT_HOLD, TH_G,
+    G_OK, WIT_LEFT, WIT_PERSIST, WIT_T, WIT_SETTLE,
 )
 from .fixed_lag_kernel import (
     R_DS, R_DT, R_F12, R_FIN, R_FOK, R_LINK, R_PF, R_PP, R_T, R_XF, R_XP, R_XS, R_Z, smooth_ring,
@@ -248,6 +249,10 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
     regression runs behind: :mod:`estimators.fixed_lag_kernel`), ``f_in``/``f_ok`` the accelerometer's last valid
     value."""
     g = G_MPS2
+    if S[WIT_LEFT] > 0.0 and S[G_OK] != 0.0:
+        # the gyro witness disagrees with the slope layer (witness()): the track's pitch is the gyro's, and the slope
+        # window must not keep the faulted grade for a train length after the fault
+        th = S[TH_G]
     # ---------------- slope under the whole train: history of theta along the distance travelled ---------------
     n_hist = int(C[N_HIST])
     n_buf = int(C[N_BUF])
@@ -398,6 +403,11 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         # learnt now would absorb whichever slope error is the wrong geometry's (0 for a single filter)
         return
     if C[FUSED] != 0.0:
+        if S[WIT_LEFT] > 0.0:
+            # the gyro witness (witness()): the slope layer moved where the gyro saw no grade change, so the
+            # accelerometer, not the track, changed; a force balance on that slope (and on a window holding it) is
+            # no evidence for the constants of the run, which would keep the error for good
+            return
         # the blend learns from the first metre moved (BLEND_EARLY), while the window still holds part of its
         # start-up guess: waiting for a window of measured slopes only left alpha at its prior for the first 12 m
         # and the slope output half the window's lagging average (plant tuning runs 1000-1199: slope RMSE median
@@ -670,6 +680,50 @@ def step(S, H, C, torque, speed, accel, dt):
         _flush_ring(S, H, C, int(C[SMOOTH_NB]), use_rate)
 
 
+GYRO_MAX_RADPS = 1.0
+"""A pitch rate above this is not the track's (a monorail's vertical curves turn it by v/R, under 0.2 rad/s): the
+witness treats the sample as missing."""
+
+
+@njit(cache=True)
+def witness(S, C, gyro, dt):
+    """The gyro witness (``WIT_THR > 0``), after a :func:`step`: the gyro's pitch, integrated, must agree with the
+    slope layer's grade within ``WIT_THR``. While they agree it is pulled towards that grade with time constant
+    ``WIT_TAU`` (so that the gyro's bias and drift stay bounded); while they disagree it follows the gyro alone,
+    so it stays the track's pitch through an accelerometer fault, and the fused regression holds (``WIT_LEFT``)
+    until ``WIT_HOLD`` after the last disagreement. A disagreement lasting ``WIT_PERSIST`` is a lasting change (a
+    bias that stays): the witness re-locks to the grade. Locked to the grade (no disagreement) until the regression
+    starts (``MOVED``: the slope layer's start-up transient is not a fault) and after a missing or implausible
+    gyro sample; so a trace without a gyro (NaN) runs as without the witness."""
+    if not (C[WIT_THR] > 0.0) or not (dt > 0.0):
+        return
+    if S[WIT_LEFT] > 0.0:
+        S[WIT_LEFT] = max(S[WIT_LEFT] - min(dt, C[GAP_S]), 0.0)
+    th = S[TH]
+    if S[MOVED] == 0.0 or not (abs(gyro) <= GYRO_MAX_RADPS) or not (abs(th) < math.inf) or dt > C[GAP_S]:
+        S[G_OK] = 0.0
+        S[WIT_T] = 0.0
+        return
+    if S[G_OK] < C[WIT_SETTLE]:
+        # (re)locked: follow the grade until the slope layer has settled again (after a dropout it converges back to
+        # the track, which the gyro, locked to its stale value, would call a disagreement)
+        S[TH_G] = th
+        S[G_OK] += dt
+        return
+    tg = S[TH_G] + gyro * dt
+    if abs(th - tg) > C[WIT_THR]:
+        S[WIT_T] += dt
+        if S[WIT_T] >= C[WIT_PERSIST]:
+            tg = th
+            S[WIT_T] = 0.0
+        else:
+            S[WIT_LEFT] = C[WIT_HOLD]
+    else:
+        S[WIT_T] = 0.0
+        tg += (th - tg) * min(dt / C[WIT_TAU], 1.0)
+    S[TH_G] = tg
+
+
 @njit(cache=True)
 def estimate(S, C, out):
     """Write (mass, slope, mass_std, slope_std, mu, mu_std, alpha, nis, score) into ``out`` (alpha: fused only,
@@ -711,6 +765,26 @@ def steps(S, H, C, torque, speed, accel, dt):
     """:func:`step` over a block of samples ``dt`` apart, without the per-sample estimates (the env's path)."""
     for i in range(torque.shape[0]):
         step(S, H, C, torque[i], speed[i], accel[i], dt)
+
+
+@njit(cache=True)
+def steps_witnessed(S, H, C, torque, speed, accel, gyro, dt):
+    """:func:`steps` with the gyro witness after each sample."""
+    for i in range(torque.shape[0]):
+        step(S, H, C, torque[i], speed[i], accel[i], dt)
+        witness(S, C, gyro[i], dt)
+
+
+@njit(cache=True)
+def run_witnessed(S, H, C, torque, speed, accel, gyro, dts, out):
+    """:func:`run` with the gyro witness after each sample."""
+    row = np.empty(N_EST)
+    for i in range(torque.shape[0]):
+        step(S, H, C, torque[i], speed[i], accel[i], dts[i])
+        witness(S, C, gyro[i], dts[i])
+        estimate(S, C, row)
+        for j in range(N_EST):
+            out[i, j] = row[j]
 
 
 @njit(cache=True)

@@ -97,7 +97,13 @@ EVID_MIN = 84  # the geometry bank's evidence counts only while its members' slo
 RATE_R = 85  # the sample step the settings are for over REFERENCE_DT_S (1 at 200 Hz): per-sample rates scale by it
 RES_GATE2 = 86  # > 0: the mass holds on a sample whose residual squared exceeds this times (RES_VAR + h P h)
 RES_PERSIST = 87  # ... unless the gate has held it this long (s) in a row: then the residual is the new scale
-CHAIN_SET = 88  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+WIT_THR = 88  # > 0: the gyro witness (fused): the slope layer's grade this far (rad) from the gyro's pitch holds the
+#   regression, since a grade change the gyro does not see is an accelerometer fault, not the track
+WIT_TAU = 89  # ... the time constant (s) of the pull of the gyro's integrated pitch towards the slope layer's grade
+WIT_HOLD = 90  # ... how long (s) the hold lasts after the last disagreement; a disagreement that lasts WIT_PERSIST (s)
+WIT_PERSIST = 91  #   is a lasting change, not a fault: the witness re-locks to the grade
+WIT_SETTLE = 92  # ... and after a (re)lock it follows the grade this long (s) before it may disagree
+CHAIN_SET = 93  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8
@@ -195,7 +201,11 @@ NOISE_F = 95  #   (the accelerometer's noise variance, read online; ACC_PER_NOIS
 DISAGREE = 96  # written by the geometry bank before each step: the spread (max - min, unweighted) of its members'
 #   slopes gravity acts on (rad); outside a bank it stays at DISAGREE_ALONE
 RES_SKIP = 97  # how long (s) the residual gate has held the mass in a row
-CHAIN_ST = 98  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
+TH_G = 98  # the gyro witness: the gyro's integrated pitch (rad), pulled towards the slope layer's grade while they agree
+G_OK = 99  # ... how long (s) TH_G has followed a valid gyro since it (re)locked (0: re-lock on the next valid sample)
+WIT_LEFT = 100  # ... how long (s) the regression still holds for
+WIT_T = 101  # ... how long (s) the two have disagreed in a row
+CHAIN_ST = 102  # chain-length bank member k's state at CHAIN_ST + CHAIN_ST_W k: swing angle, its rate, the
 #   low-pass of its load acceleration (3 slots), that acceleration, its force-balance evidence (negative log-lik.)
 CHAIN_ST_W = 7
 N_S = CHAIN_ST + CHAIN_ST_W * MAX_CHAINS

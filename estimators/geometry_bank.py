@@ -82,6 +82,8 @@ class GeometryBank(Estimator):
             # one spread gate for all: every member stops updating at the same grade changes and is scored there
             # with the parameters it had before them, so only the geometry tells the members apart
             options = {**options, "spread_length_m": max(windows)}
+        if options.get("gyro_witness_deg", base.gyro_witness_deg):
+            raise ValueError("dffrls-aekf: gyro_witness_deg is an option of fused, not of the geometry bank")
         self.members = [DFFRLSAEKF(self.vehicle, base, **options, train_length_m=w) for w in windows]
         self.config = self.members[0].config
         k = len(self.members)

@@ -38,9 +38,6 @@ KNOWN_FAILURES: dict[tuple[str, str], str] = {
     ("dffrls-aekf-paper", "bias"): "the paper's equations as printed have no recovery mechanism; " + _OTHERS,
     ("ekf", "bias"): "mass 537 kg from the clean run 12-27 s after the bias (bound 520); " + _OTHERS,
     ("rls", "bias"): "no forgetting: slope 0.30 deg from the clean run (bound 0.15); " + _OTHERS,
-    ("fused", "bias"): "over the bound on 4 of the 8 noise seeds 0-7 (1.5 t at worst, session 25; this seed 3 within "
-                       "it, 232 kg; 0.82 t in session 19, rigid as the trace's load; 1.6 t with one 2 m pendulum, "
-                       "session 10); " + _OTHERS,
 }
 
 

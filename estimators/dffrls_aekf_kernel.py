@@ -370,7 +370,10 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
     force_ok = F > C[MIN_FORCE] or (C[BRAKING] != 0.0 and F < -C[MIN_FORCE])
     usable = (raw_ok and S[LF_OK] != 0.0 and S[T_VALID] > C[SETTLE_S] and vf > C[MIN_SPEED] and force_ok
               and p22 < C[READY_VAR])
-    if not usable:
+    if not usable or S[WIT_LEFT] > 0.0:
+        # (WIT_LEFT: the gyro witness, witness(): the slope layer moved where the gyro saw no grade change, so the
+        # accelerometer, not the track, changed; a force balance on that slope is no evidence for the run's constants,
+        # which would keep the error for good, nor for the chain or geometry banks)
         return
     y = (F - C[M_ROT] * acc_f - C[M_RIGID] * (acc_f - a_load_f)) / C[M_REF]
     # the force balance predicted with the current parameters, before they update: the evidence of the chain-length
@@ -403,11 +406,6 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         # learnt now would absorb whichever slope error is the wrong geometry's (0 for a single filter)
         return
     if C[FUSED] != 0.0:
-        if S[WIT_LEFT] > 0.0:
-            # the gyro witness (witness()): the slope layer moved where the gyro saw no grade change, so the
-            # accelerometer, not the track, changed; a force balance on that slope (and on a window holding it) is
-            # no evidence for the constants of the run, which would keep the error for good
-            return
         # the blend learns from the first metre moved (BLEND_EARLY), while the window still holds part of its
         # start-up guess: waiting for a window of measured slopes only left alpha at its prior for the first 12 m
         # and the slope output half the window's lagging average (plant tuning runs 1000-1199: slope RMSE median

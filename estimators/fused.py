@@ -53,7 +53,7 @@ __all__ = ["FusedObserver", "FUSED_DEFAULTS"]
 
 FUSED_DEFAULTS = DFFRLSAEKFConfig(fused=True, offset_forgetting_ratio=0.05, train_length_m=14.0,
                                   max_geometry_ambiguity_rad=0.002, grade_curvature_std=0.0, min_accel_mps2=0.05,
-                                  braking_samples=False, fused_spread_gate=True, gyro_witness_deg=0.75)
+                                  braking_samples=False, fused_spread_gate=True)
 """The ``fused`` settings: ``dffrls-aekf``'s with a 14 m window and the learned blend, and the offset forgotten 20x
 slower than the dynamic factor asks (so a grade change is explained by the blend, not soaked up by the offset). Chosen on
 plant runs 1000-1015 among offset ratios 0.01-1 and windows 12 / 14 / 18.1 m (12 m: median slope 0.54° but 90th
@@ -70,8 +70,9 @@ slope layer's lag on vertical curves braked through as mass (the plant never bra
 Since session 24 the mass holds on grade changes within the window (``fused_spread_gate``: the mass, not the offset or
 the blend, becomes a considered parameter there): plant tuning runs unchanged (median 6.50 → 6.47 %), point-mass runs
 1000-1059 median / p90 5.00 / 15.44 → 3.76 / 11.55 %. Since session 55 the gyro witness (``gyro_witness_deg=0.75``):
-the protocol's 435 runs unchanged but one cell (the plant's stuck speed sensor, slope 1.64 → 1.60°), the fault test's
-accelerometer bias recovered on seven noise seeds of eight instead of four (docs/robustness.md)."""
+the protocol's 435 runs unchanged but one cell (the plant's stuck speed sensor, slope 1.64 → 1.56°), the fault test's
+accelerometer bias recovered on seven noise seeds of eight instead of four (docs/robustness.md); ``dffrls-aekf``'s
+default too."""
 
 
 class FusedObserver(DFFRLSAEKF):
@@ -89,7 +90,6 @@ class FusedObserver(DFFRLSAEKF):
     """
 
     name: ClassVar[str] = "fused"
-    inputs: ClassVar[tuple[str, ...]] = ("gyro_radps",)  # the witness of grade changes (gyro_witness_deg)
 
     def __init__(self, vehicle: VehicleParams | None = None, config: DFFRLSAEKFConfig | None = None,
                  **options: Any) -> None:

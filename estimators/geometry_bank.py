@@ -32,7 +32,7 @@ from uuom_core.vehicle import VehicleParams
 from . import dffrls_aekf_kernel as kern
 from . import geometry_bank_kernel as bk
 from .base import Estimate, EstimateSeries, Estimator
-from .dffrls_aekf import DFFRLSAEKF, DFFRLSAEKFConfig, batch_arrays, block_columns
+from .dffrls_aekf import DFFRLSAEKF, DFFRLSAEKFConfig, batch_arrays, block_columns, gyro_column
 
 __all__ = ["DEFAULT_WINDOWS_M", "GeometryBank"]
 
@@ -61,7 +61,7 @@ class GeometryBank(Estimator):
 
     name: ClassVar[str] = "dffrls-aekf"
     provides: ClassVar[frozenset[str]] = frozenset({"mass", "slope", "mu"})
-    inputs: ClassVar[tuple[str, ...]] = ()
+    inputs: ClassVar[tuple[str, ...]] = ("gyro_radps",)  # the witness of grade changes (gyro_witness_deg)
 
     def __init__(self, vehicle: VehicleParams | None = None, config: DFFRLSAEKFConfig | None = None,
                  windows_m: Sequence[float] | None = None, **options: Any) -> None:
@@ -82,8 +82,6 @@ class GeometryBank(Estimator):
             # one spread gate for all: every member stops updating at the same grade changes and is scored there
             # with the parameters it had before them, so only the geometry tells the members apart
             options = {**options, "spread_length_m": max(windows)}
-        if options.get("gyro_witness_deg", base.gyro_witness_deg):
-            raise ValueError("dffrls-aekf: gyro_witness_deg is an option of fused, not of the geometry bank")
         self.members = [DFFRLSAEKF(self.vehicle, base, **options, train_length_m=w) for w in windows]
         self.config = self.members[0].config
         k = len(self.members)
@@ -112,15 +110,16 @@ class GeometryBank(Estimator):
                motor_speed_radps: float = math.nan, gyro_radps: float = math.nan,
                accel_normal_mps2: float = math.nan) -> Estimate:
         bk.bank_step(self._SS, self._HH, self._CC, float(torque_nm), float(speed_mps), float(accel_mps2),
-                     float(dt_s), self._w)
+                     float(gyro_radps), float(dt_s), self._w)
         return self.estimate
 
     def update_block(self, torque_nm, speed_mps, accel_mps2, dt_s, motor_speed_radps=None, gyro_radps=None,
                      accel_normal_mps2=None) -> Estimate:
         """The samples of a block through the compiled bank step in one call; the same state as :meth:`update` each
         (sample by sample across the members: each sample's ambiguity gate needs all of them)."""
-        bk.bank_steps(self._SS, self._HH, self._CC, *block_columns(self.name, torque_nm, speed_mps, accel_mps2),
-                      float(dt_s), self._w)
+        cols = block_columns(self.name, torque_nm, speed_mps, accel_mps2)
+        bk.bank_steps(self._SS, self._HH, self._CC, *cols, gyro_column(gyro_radps, len(cols[0])), float(dt_s),
+                      self._w)
         return self.estimate
 
     @property
@@ -149,7 +148,8 @@ class GeometryBank(Estimator):
                 m.adopt_rate(trace["t_s"])
             self.reset()
         t, dts, cols, out = batch_arrays(trace, t_prev_s, len(self._out))
-        bk.bank_run(self._SS, self._HH, self._CC, *cols, dts, out)
+        gyro = gyro_column(trace["gyro_radps"] if "gyro_radps" in trace else None, len(t))
+        bk.bank_run(self._SS, self._HH, self._CC, *cols, gyro, dts, out)
         r = out.T
         extras = {"mu": r[4], "mu_std": r[5], "nis": r[6]}
         for i, key in enumerate(self._weight_keys):

@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from .dffrls_aekf_kernel import (
-    AMBIG, DISAGREE, EARLY_CAP, EST_SCORE, N_EST, SCORE, SCORE_EARLY, TH_TRAIN, estimate, step,
+    AMBIG, DISAGREE, EARLY_CAP, EST_SCORE, N_EST, SCORE, SCORE_EARLY, TH_TRAIN, estimate, step, witness,
 )
 from .numba_shim import njit
 
@@ -101,9 +101,9 @@ def ambiguity(SS, CC, w):
 
 
 @njit(cache=True)
-def bank_step(SS, HH, CC, torque, speed, accel, dt, w):
+def bank_step(SS, HH, CC, torque, speed, accel, gyro, dt, w):
     """One sample through every member, each told the members' ambiguity of the sample before (``w``: scratch of
-    k, allocated once by the caller)."""
+    k, allocated once by the caller), then each member's gyro witness (``gyro``: NaN without one)."""
     k = SS.shape[0]
     amb = ambiguity(SS, CC, w) if k > 1 else 0.0
     # how far apart the members' slopes are, unweighted: where they agree (a level or uniform grade) the force
@@ -118,23 +118,24 @@ def bank_step(SS, HH, CC, torque, speed, accel, dt, w):
         if k > 1:
             SS[i, DISAGREE] = hi - lo
         step(SS[i], HH[i], CC[i], torque, speed, accel, dt)
+        witness(SS[i], CC[i], gyro, dt)
 
 
 @njit(cache=True)
-def bank_steps(SS, HH, CC, torque, speed, accel, dt, w):
+def bank_steps(SS, HH, CC, torque, speed, accel, gyro, dt, w):
     """:func:`bank_step` over the samples of a block (one ``dt``)."""
     for n in range(torque.shape[0]):
-        bank_step(SS, HH, CC, torque[n], speed[n], accel[n], dt, w)
+        bank_step(SS, HH, CC, torque[n], speed[n], accel[n], gyro[n], dt, w)
 
 
 @njit(cache=True)
-def bank_run(SS, HH, CC, torque, speed, accel, dts, out):
+def bank_run(SS, HH, CC, torque, speed, accel, gyro, dts, out):
     """The batch path: :func:`bank_step` + :func:`bank_estimate` over whole arrays; ``out`` is (n, 7 + k)."""
     rows = np.empty((SS.shape[0], N_EST))
     row = np.empty(out.shape[1])
     w = np.empty(SS.shape[0])
     for n in range(torque.shape[0]):
-        bank_step(SS, HH, CC, torque[n], speed[n], accel[n], dts[n], w)
+        bank_step(SS, HH, CC, torque[n], speed[n], accel[n], gyro[n], dts[n], w)
         bank_estimate(SS, CC, rows, row)
         for j in range(out.shape[1]):
             out[n, j] = row[j]

@@ -60,6 +60,7 @@ VARIANTS: list[tuple[str, str, dict]] = [
     ("- grade curvature state (the paper's two-state slope EKF)", "dffrls-aekf", {"grade_curvature_std": 0.0}),
     ("- spike / innovation gates", "dffrls-aekf", {"gates": False}),
     ("- Sage-Husa R adaptation", "dffrls-aekf", {"adapt_r": False}),
+    ("- the gyro witness of grade changes (none, as before session 55)", "dffrls-aekf", {"gyro_witness_deg": 0.0}),
     ("dffrls-aekf-paper (as printed)", "dffrls-aekf-paper", {}),
     ("dffrls-aekf-paper without noise means", "dffrls-aekf-paper", {"adapt_means": False}),
     ("fused", "fused", {}),
@@ -68,6 +69,7 @@ VARIANTS: list[tuple[str, str, dict]] = [
      {"blend_from_start": False}),
     ("fused, its blend learnt on every steady-speed sample (as before session 27)", "fused",
      {"evidence_min_disagreement_rad": 0.0}),
+    ("fused without the gyro witness (as before session 55)", "fused", {"gyro_witness_deg": 0.0}),
 ]
 
 

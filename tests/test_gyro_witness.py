@@ -1,10 +1,10 @@
-"""``fused``'s gyro witness (``gyro_witness_deg``): an accelerometer bias reads exactly like a grade change to the
-accelerometer and the encoder; the pitch-rate gyro is the sensor that tells them apart.
+"""The gyro witness of ``dffrls-aekf`` and ``fused`` (``gyro_witness_deg``): an accelerometer bias reads exactly like
+a grade change to the accelerometer and the encoder; the pitch-rate gyro is the sensor that tells them apart.
 
 The fault trace of ``tests/test_estimators_faults.py`` (a 26 t point mass on a varying grade, all seven inputs; a 3 s
 bias of +0.5 m/s^2 on the accelerometer and +10 % on the torque at 10 s) over its eight noise seeds: without the
-witness ``fused`` ends more than 2 % of the mass from its clean run on four seeds, with it on one. On fault-free data
-with a consistent gyro, and on data without a gyro, the witness changes nothing.
+witness ``fused`` ends more than 2 % of the mass from its clean run on four seeds and ``dffrls-aekf`` on one, with it
+on one and none. On fault-free data with a consistent gyro, and on data without a gyro, the witness changes nothing.
 """
 
 from __future__ import annotations
@@ -20,59 +20,64 @@ from estimators.fault_injection import RECOVERY_BOUNDS, RECOVERY_MASS_KG, RECOVE
 DT = 0.005
 FAULT = slice(int(10.0 / DT), int(13.0 / DT))
 SCORED = slice(int(25.0 / DT), None)
-OPTIONS = RECOVERY_OPTIONS["fused"]
 
 
-def _mass(rows: np.ndarray, **options: float) -> np.ndarray:
-    est = estimators.make("fused", **OPTIONS, **options)
+def _mass(rows: np.ndarray, name: str = "fused", **options: float) -> np.ndarray:
+    est = estimators.make(name, **RECOVERY_OPTIONS[name], **options)
     return np.array([est.update(*row).mass_kg for row in rows.tolist()])
 
 
-def _bias_misses(**options: float) -> int:
+def _bias_misses(name: str, **options: float) -> int:
     """How many of the eight noise seeds end more than the recovery bound from their clean run after the bias."""
     misses = 0
     for seed in range(8):
         rows = seven_channel_rows(RECOVERY_MASS_KG, 40.0, DT, seed=seed)
-        clean, bad = _mass(rows, **options), _mass(inject(rows, "bias", FAULT.start, FAULT.stop), **options)
+        clean = _mass(rows, name, **options)
+        bad = _mass(inject(rows, "bias", FAULT.start, FAULT.stop), name, **options)
         misses += float(np.mean(np.abs(bad[SCORED] - clean[SCORED]))) > RECOVERY_BOUNDS["mass"]
     return misses
 
 
-def test_fused_has_the_witness_and_reads_the_gyro() -> None:
-    est = estimators.make("fused")
+@pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])
+def test_the_witness_is_the_default_and_reads_the_gyro(name: str) -> None:
+    est = estimators.make(name)
     assert est.config.gyro_witness_deg == pytest.approx(0.75)
     assert "gyro_radps" in est.inputs
 
 
-def test_the_witness_makes_fused_recover_from_the_bias() -> None:
-    assert _bias_misses() <= 1
-    assert _bias_misses(gyro_witness_deg=0.0) >= 3  # the same trace without the witness: the test can fail
+@pytest.mark.parametrize("name, most_with, least_without", [("fused", 1, 3), ("dffrls-aekf", 0, 1)])
+def test_the_witness_recovers_from_the_bias(name: str, most_with: int, least_without: int) -> None:
+    assert _bias_misses(name) <= most_with
+    # the same trace without the witness: the test can fail
+    assert _bias_misses(name, gyro_witness_deg=0.0) >= least_without
 
 
-def test_no_change_without_a_fault_or_without_a_gyro() -> None:
+@pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])
+def test_no_change_without_a_fault_or_without_a_gyro(name: str) -> None:
     rows = seven_channel_rows(RECOVERY_MASS_KG, 40.0, DT, seed=3)
-    off = _mass(rows, gyro_witness_deg=0.0)
-    np.testing.assert_array_equal(_mass(rows), off)  # a consistent gyro never disagrees
+    off = _mass(rows, name, gyro_witness_deg=0.0)
+    np.testing.assert_array_equal(_mass(rows, name), off)  # a consistent gyro never disagrees
     no_gyro = rows.copy()
     no_gyro[:, 5] = np.nan
     biased = inject(no_gyro, "bias", FAULT.start, FAULT.stop)
-    np.testing.assert_array_equal(_mass(biased), _mass(biased, gyro_witness_deg=0.0))
+    np.testing.assert_array_equal(_mass(biased, name), _mass(biased, name, gyro_witness_deg=0.0))
 
 
-def test_batch_block_and_sample_paths_agree() -> None:
+@pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])
+def test_batch_block_and_sample_paths_agree(name: str) -> None:
     from uuom_core.trace import Trace
 
     rows = inject(seven_channel_rows(RECOVERY_MASS_KG, 40.0, DT, seed=6), "bias", FAULT.start, FAULT.stop)
     t = DT * np.arange(1, len(rows) + 1)
     rows[:, 3] = np.diff(t, prepend=0.0)  # the steps run() reads off the stamps (not all exactly DT)
-    online = _mass(rows)
+    online = _mass(rows, name)
     tr = Trace({"t_s": t, "torque_nm": rows[:, 0], "speed_mps": rows[:, 1], "accel_mps2": rows[:, 2],
                 "gyro_radps": rows[:, 5]})
-    batch = estimators.make("fused", **OPTIONS).run(tr).mass_kg
+    batch = estimators.make(name, **RECOVERY_OPTIONS[name]).run(tr).mass_kg
     np.testing.assert_array_equal(batch, online)
-    est = estimators.make("fused", **OPTIONS)
+    est = estimators.make(name, **RECOVERY_OPTIONS[name])
     rows[:, 3] = DT
-    online = _mass(rows)
+    online = _mass(rows, name)
     for a in range(0, len(rows), 40):
         r = rows[a:a + 40]
         e = est.update_block(r[:, 0], r[:, 1], r[:, 2], DT, gyro_radps=r[:, 5])
@@ -93,13 +98,13 @@ def test_a_bad_gyro_is_a_missing_one(gyro: float) -> None:
     assert float(np.mean(np.abs(m[SCORED] - clean[SCORED]))) < RECOVERY_BOUNDS["mass"]
 
 
-def test_options_are_checked_and_the_bank_refuses_the_witness() -> None:
-    with pytest.raises(ValueError, match="gyro_witness_deg"):
-        estimators.make("fused", gyro_witness_deg=-1.0)
-    with pytest.raises(ValueError, match="gyro_witness_tau_s"):
-        estimators.make("fused", gyro_witness_tau_s=0.0)
-    with pytest.raises(ValueError, match="gyro_witness_deg"):
-        estimators.make("dffrls-aekf", gyro_witness_deg=0.75)
+@pytest.mark.parametrize("option, value", [("gyro_witness_deg", -1.0), ("gyro_witness_deg", math.nan),
+                                           ("gyro_witness_tau_s", 0.0), ("gyro_witness_persist_s", 0.0),
+                                           ("gyro_witness_hold_s", -1.0), ("gyro_witness_settle_s", math.inf)])
+def test_options_are_checked(option: str, value: float) -> None:
+    for name in ("dffrls-aekf", "fused"):
+        with pytest.raises(ValueError, match=option):
+            estimators.make(name, **{option: value})
 
 
 def test_margin_script_reports_the_gap_under_the_threshold(capsys) -> None:

@@ -73,7 +73,9 @@ def test_bad_gate_settings_are_refused(option: str, value: float) -> None:
 def test_kernel_gate_is_off_by_default_and_acts_when_asked(name: str) -> None:
     clean = seven_channel_rows(MASS_KG, 40.0, DT, seed=3)
     bad = inject(clean, "bias", int(10.0 / DT), int(13.0 / DT))
-    world = RECOVERY_OPTIONS[name]
+    # the gate alone: the gyro witness (on by default since session 55) holds the regression through this very bias
+    # and would leave the gate little to do
+    world = {**RECOVERY_OPTIONS[name], "gyro_witness_deg": 0.0}
     default = run_outputs(name, bad, **world)["mass"]
     off = run_outputs(name, bad, **world, residual_gate_sigma=0.0)["mass"]
     on = run_outputs(name, bad, **world, residual_gate_sigma=1.0)["mass"]

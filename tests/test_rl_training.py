@@ -188,3 +188,13 @@ def test_policy_trained_under_an_action_std_ceiling_arrives():
     assert cfg["demo_bc_weight"] == 100.0 and cfg.get("init_from") is None
     assert cfg["action_std_ceiling"] == [0.37, 0.05, 300000]
     assert_arrives(str(run), 100_001)
+
+
+def test_policy_under_the_ceiling_with_the_controllers_own_labeller_arrives():
+    # docs/rl.md §51: §49's ceiling recipe with --demonstrator-options '{}' (the rule-based controller's own 8 %
+    # margin as labeller); seed 2 100/100 held out with 0 trips, 1.279x the oracle (still slower than rule-based)
+    run = POLICIES / "ppo_bc_ceiling08_traction_s2"
+    cfg = bare_ppo_traction_config(run)
+    assert cfg["demo_bc_weight"] == 100.0 and cfg.get("init_from") is None
+    assert cfg["demonstrator_options"] == {} and cfg["action_std_ceiling"] == [0.37, 0.05, 300000]
+    assert_arrives(str(run), 100_002)

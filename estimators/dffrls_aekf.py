@@ -738,8 +738,7 @@ class DFFRLSAEKF(Estimator):
             self.reset()
         t, dts, cols, out = batch_arrays(trace, t_prev_s, kern.N_EST)
         if self._witness:
-            gyro = trace["gyro_radps"] if "gyro_radps" in trace else None
-            kern.run_witnessed(self.S, self.H, self.C, *cols, gyro_column(gyro, len(t)), dts, out)
+            kern.run_witnessed(self.S, self.H, self.C, *cols, gyro_column(trace.get("gyro_radps"), len(t)), dts, out)
         else:
             kern.run(self.S, self.H, self.C, *cols, dts, out)
         rows = out.T

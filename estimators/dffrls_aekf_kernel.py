@@ -688,7 +688,7 @@ def witness(S, C, gyro, dt):
     """The gyro witness (``WIT_THR > 0``), after a :func:`step`: the gyro's pitch, integrated, must agree with the
     slope layer's grade within ``WIT_THR``. While they agree it is pulled towards that grade with time constant
     ``WIT_TAU`` (so that the gyro's bias and drift stay bounded); while they disagree it follows the gyro alone,
-    so it stays the track's pitch through an accelerometer fault, and the fused regression holds (``WIT_LEFT``)
+    so it stays the track's pitch through an accelerometer fault, and the regression holds (``WIT_LEFT``)
     until ``WIT_HOLD`` after the last disagreement. A disagreement lasting ``WIT_PERSIST`` is a lasting change (a
     bias that stays): the witness re-locks to the grade. Locked to the grade (no disagreement) until the regression
     starts (``MOVED``: the slope layer's start-up transient is not a fault) and after a missing or implausible

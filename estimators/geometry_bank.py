@@ -148,7 +148,7 @@ class GeometryBank(Estimator):
                 m.adopt_rate(trace["t_s"])
             self.reset()
         t, dts, cols, out = batch_arrays(trace, t_prev_s, len(self._out))
-        gyro = gyro_column(trace["gyro_radps"] if "gyro_radps" in trace else None, len(t))
+        gyro = gyro_column(trace.get("gyro_radps"), len(t))
         bk.bank_run(self._SS, self._HH, self._CC, *cols, gyro, dts, out)
         r = out.T
         extras = {"mu": r[4], "mu_std": r[5], "nis": r[6]}

@@ -101,6 +101,21 @@ def test_trace_object_checks():
         Trace({"t_s": [0.0, 1.0], "torque_nm": [1.0], "speed_mps": [1.0], "accel_mps2": [0.0]})
 
 
+def test_from_time_is_the_log_a_logger_switched_on_later_records():
+    tr = make_trace(50)
+    tr.meta["run"] = "r1"
+    late = tr.from_time(0.1)  # samples 20..49
+    assert len(late) == 30 and late["t_s"][0] == pytest.approx(0.1)
+    for name, col in tr.columns.items():
+        np.testing.assert_array_equal(late[name], col[20:])
+    assert late.meta == {"run": "r1", "from_time_s": "0.1"} and "from_time_s" not in tr.meta
+    assert len(tr.from_time(-5.0)) == 50
+    with pytest.raises(ValueError, match="no sample at or after"):
+        tr.from_time(1.0)
+    with pytest.raises(ValueError, match="finite"):
+        tr.from_time(float("nan"))
+
+
 def test_atomic_write_leaves_nothing_on_failure(tmp_path):
     p = tmp_path / "a.csv"
     with pytest.raises(ValueError):

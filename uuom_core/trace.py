@@ -105,6 +105,19 @@ class Trace:
         t = self.columns["t_s"]
         return float(t[-1] - t[0]) if len(t) > 1 else 0.0
 
+    def from_time(self, t_s: float) -> Trace:
+        """The samples at or after ``t_s``: a log that begins there (a logger switched on with the train in motion).
+
+        Raises ``ValueError`` when ``t_s`` is not finite or no sample is left."""
+        if not math.isfinite(t_s):
+            raise ValueError(f"{self.source}: from_time needs a finite time, got {t_s!r}")
+        keep = self.columns["t_s"] >= t_s
+        if not keep.any():
+            raise ValueError(f"{self.source}: no sample at or after t = {t_s} s (the trace ends at "
+                             f"{self.columns['t_s'][-1] if len(self) else 'its start'})")
+        return Trace({k: v[keep] for k, v in self.columns.items()}, self.source,
+                     {**self.meta, "from_time_s": f"{t_s:g}"}, list(self.warnings))
+
 
 PLAUSIBLE_ABS_MAX: dict[str, float] = {
     "t_s": 1e10,  # Unix time in seconds is 1.7e9; milliseconds are caught by the sample-interval check

@@ -323,3 +323,20 @@ def test_the_sample_rate_is_reported_and_a_log_far_from_200_hz_gets_a_note(good_
     notes = [line for line in err.splitlines() if "note" in line]
     assert len(notes) == 1 and "50 Hz" in notes[0] and "200 Hz" in notes[0]
     assert len(out.read_text().splitlines()) - 1 == len(tr["t_s"][::4])
+
+
+def test_a_log_that_begins_in_motion_gets_a_note(good_trace: Path, tmp_path: Path, capsys) -> None:
+    """The estimators learn the mass mostly from a pull-away (docs/estimation.md, "Where the mass comes from"): a log
+    that begins moving is told so once, on stderr; one that begins at rest is not; the estimates are the same either
+    way, and the JSON summary carries the start speed."""
+    rc, stdout, err = _run(capsys, str(good_trace), "--estimator", "dffrls-aekf", "--json")
+    assert rc == 0 and "begins in motion" not in err
+    assert abs(json.loads(stdout)["start_speed_mps"]) < 0.1
+    tr = read_trace_csv(good_trace)
+    late_t = float(tr["t_s"][np.argmax(tr["speed_mps"] > 0.5)])  # past the pull-away
+    late = tmp_path / "late.csv"
+    write_trace_csv(tr.from_time(late_t), late)
+    rc, stdout, err = _run(capsys, str(late), "--estimator", "dffrls-aekf", "--json")
+    notes = [line for line in err.splitlines() if "begins in motion" in line]
+    assert rc == 0 and len(notes) == 1 and notes[0].startswith("uuom-estimate: note: ")
+    assert json.loads(stdout)["start_speed_mps"] > 0.1

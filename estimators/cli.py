@@ -86,6 +86,7 @@ in motion and gets a note: the estimators learn the mass mostly from a pull-away
 "Where the mass comes from")."""
 
 START_SAMPLES = 40
+"""How many valid speed readings from its start tell how fast a log begins (0.2 s at 200 Hz)."""
 
 
 def _on_sigterm(signum: int, frame: Any) -> None:
@@ -422,7 +423,7 @@ def _run(args: argparse.Namespace) -> int:
     if start_speed is not None and abs(start_speed) > MOVING_START_MPS and "mass" in provides:
         print(f"{PROG}: note: {args.trace}: the log begins in motion ({start_speed:.2f} m/s); the estimators learn the "
               f"mass mostly from a pull-away from rest, and on the protocol's runs begun 15 s in the median max mass error "
-              f"after 10 s is 14-29 % instead of 2-5 % — read mass_std_kg (docs/estimation.md, \"Where the mass comes "
+              f"after 10 s is 14-23 % instead of 2-5 % — read mass_std_kg (docs/estimation.md, \"Where the mass comes "
               f"from\")", file=sys.stderr)
     summary["estimator"] = args.estimator
     summary["trace"] = str(args.trace)

@@ -17,7 +17,7 @@ world and start time:
 Nothing here is tuned; the runs are the protocol's evaluation runs (``uuom_gym.sim.protocol_runs``).
 
     python scripts/start_dependence.py --runs 200 --scenario-seeds 10 --workers 2 \\
-        --out results/estimation/start_dependence.md       # ~4 min on 2 cores
+        --out results/estimation/start_dependence.md       # 70-90 s on 2 cores
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 import estimators
-from estimators.metrics import train_slope_deg
+from estimators.metrics import distribution, train_slope_deg
 from uuom_core.trace import Trace
 from uuom_core.vehicle import DEFAULT_VEHICLE
 from uuom_gym.sim.protocol_runs import RunSpec, make_run, protocol_runs
@@ -87,12 +87,6 @@ def _work(job: tuple[str, RunSpec, tuple[float, ...], tuple[str, ...]]) -> list[
     return rows
 
 
-def _q(x: np.ndarray, p: float) -> float:
-    """Nearest-rank percentile (the protocol's)."""
-    x = np.sort(np.asarray(x, dtype=float))
-    return float(x[min(len(x) - 1, max(0, int(np.ceil(p / 100.0 * len(x))) - 1))])
-
-
 def report(rows: list[dict[str, Any]], command: str) -> str:
     groups = list(dict.fromkeys(r["group"] for r in rows))
     names = list(dict.fromkeys(r["estimator"] for r in rows))
@@ -109,14 +103,14 @@ def report(rows: list[dict[str, Any]], command: str) -> str:
                 sel = [r for r in rows if r["estimator"] == name and r["group"] == g and r["start_s"] == st]
                 if not sel:
                     continue
-                col = {k: np.array([r[k] for r in sel]) for k in sel[0] if isinstance(sel[0][k], float)}
+                mass, end, slope = (distribution(r[k] for r in sel) for k in ("mass_max", "mass_end", "slope_rmse"))
                 begins = "rest (t = 0)" if st == 0 else f"{st:g} s"
                 lines.append(
-                    f"| `{name}` | {g} | {begins} | {len(sel)} | {np.median(col['mass_max']):.2f} / "
-                    f"{_q(col['mass_max'], 90):.2f} / {_q(col['mass_max'], 95):.2f} | {np.median(col['mass_end']):.2f}"
-                    f" / {_q(col['mass_end'], 95):.2f} | {100 * col['within_2sd'].mean():.1f} % | "
-                    f"{100 * np.mean(col['max_z'] > 3.0):.1f} % | {np.median(col['slope_rmse']):.3f} / "
-                    f"{_q(col['slope_rmse'], 95):.3f} |")
+                    f"| `{name}` | {g} | {begins} | {len(sel)} | {mass['median']:.2f} / {mass['p90']:.2f} / "
+                    f"{mass['p95']:.2f} | {end['median']:.2f} / {end['p95']:.2f} | "
+                    f"{100 * np.mean([r['within_2sd'] for r in sel]):.1f} % | "
+                    f"{100 * np.mean([r['max_z'] > 3.0 for r in sel]):.1f} % | {slope['median']:.3f} / "
+                    f"{slope['p95']:.3f} |")
     lines += ["", "## Measured drive force after the first 10 s (logs from rest)", "",
               f"Share of samples with a drive force above {100 * FORCE_FRACTION:g} % of the traction limit and the "
               f"train moving; runs below {100 * LOW_FORCE_SHARE:g} % of it against the others. \"at 10 s\": the "
@@ -129,17 +123,15 @@ def report(rows: list[dict[str, Any]], command: str) -> str:
             sel = [r for r in rows if r["estimator"] == name and r["group"] == g and r["start_s"] == 0]
             if not sel:
                 continue
-            share = np.array([r["force_share"] for r in sel])
+            share = distribution(r["force_share"] for r in sel)["median"]
             low = [r for r in sel if r["force_share"] < LOW_FORCE_SHARE]
             high = [r for r in sel if r["force_share"] >= LOW_FORCE_SHARE]
 
             def stats(rs: list[dict[str, Any]], key: str) -> str:
-                if not rs:
-                    return "–"
-                x = np.array([r[key] for r in rs])
-                return f"{np.median(x):.2f} / {_q(x, 95):.2f}"
+                d = distribution(r[key] for r in rs)
+                return "–" if d["n"] == 0 else f"{d['median']:.2f} / {d['p95']:.2f}"
 
-            lines.append(f"| `{name}` | {g} | {100 * np.median(share):.0f} % | {len(low)} of {len(sel)} | "
+            lines.append(f"| `{name}` | {g} | {100 * share:.0f} % | {len(low)} of {len(sel)} | "
                          f"{stats(low, 'mass_max')} | {stats(low, 'mass_at_10s')} | {stats(high, 'mass_max')} |")
     return "\n".join(lines) + "\n"
 

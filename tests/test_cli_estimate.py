@@ -327,8 +327,8 @@ def test_the_sample_rate_is_reported_and_a_log_far_from_200_hz_gets_a_note(good_
 
 def test_a_log_that_begins_in_motion_gets_a_note(good_trace: Path, tmp_path: Path, capsys) -> None:
     """The estimators learn the mass mostly from a pull-away (docs/estimation.md, "Where the mass comes from"): a log
-    that begins moving is told so once, on stderr; one that begins at rest is not; the estimates are the same either
-    way, and the JSON summary carries the start speed."""
+    that begins moving is told so once, on stderr; one that begins at rest is not; the JSON summary carries the start
+    speed."""
     rc, stdout, err = _run(capsys, str(good_trace), "--estimator", "dffrls-aekf", "--json")
     assert rc == 0 and "begins in motion" not in err
     assert abs(json.loads(stdout)["start_speed_mps"]) < 0.1

@@ -32,15 +32,15 @@ from typing import Any
 import numpy as np
 
 import estimators
+from estimators.dffrls_aekf import DFFRLSAEKFConfig
 from estimators.metrics import distribution, train_slope_deg
 from uuom_core.trace import Trace
 from uuom_core.vehicle import DEFAULT_VEHICLE
 from uuom_gym.sim.protocol_runs import RunSpec, make_run, protocol_runs
 
 SETTLE_S = 10.0
-FORCE_FRACTION = 0.02
-"""Drive force above this share of the traction limit counts as measured force (the estimators' own
-``min_traction_fraction``)."""
+FORCE_FRACTION = DFFRLSAEKFConfig.min_traction_fraction
+"""Drive force above this share of the traction limit counts as measured force (the estimators' own gate)."""
 LOW_FORCE_SHARE = 0.10
 
 
@@ -61,6 +61,11 @@ def measured_force_share(tr: Trace, settle_s: float = SETTLE_S) -> float:
     return float(np.mean(((force > FORCE_FRACTION * DEFAULT_VEHICLE.max_traction_n) & moving)[after]))
 
 
+def log_begun_at(tr: Trace, start_s: float) -> Trace:
+    """The log a logger switched on ``start_s`` after the run's first sample records (0: the whole run)."""
+    return tr if start_s == 0 else tr.from_time(tr["t_s"][0] + start_s)
+
+
 def score(tr: Trace, name: str) -> dict[str, float]:
     """One estimator on one log: the module docstring's measures."""
     s = estimators.make(name).run(tr)
@@ -79,7 +84,7 @@ def _work(job: tuple[str, RunSpec, tuple[float, ...], tuple[str, ...]]) -> list[
     full = make_run(spec)
     rows = []
     for start in starts:
-        tr = full if start == 0 else full.from_time(full["t_s"][0] + start)
+        tr = log_begun_at(full, start)
         share = measured_force_share(tr)
         for name in names:
             rows.append({"group": group, "run": spec.name, "start_s": start, "estimator": name,

@@ -43,7 +43,7 @@ def test_sigma_stays_honest_on_logs_begun_in_motion(name: str) -> None:
     """Without the pull-away a log at constant speed holds little about the mass; the estimate may be far off, but
     its σ must say so: on the eight point-mass scenarios begun 15 s in, the truth lies within ±2σ on at least 95 %
     of the samples and within 3σ throughout (measured: 100 % and max |z| < 3 for both)."""
-    rows = [start_dependence.score(make_run(s).from_time(15.0), name)
+    rows = [start_dependence.score(start_dependence.log_begun_at(make_run(s), 15.0), name)
             for g, s in start_dependence.run_specs(0, 1) if g == "pm-scenarios"]
     assert np.mean([r["within_2sd"] for r in rows]) >= 0.95
     assert max(r["max_z"] for r in rows) <= 3.0

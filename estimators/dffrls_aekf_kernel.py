@@ -47,7 +47,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
     SMOOTH_L, SMOOTH_NB, ACC_PER_NOISE, F_PREV, NOISE_F, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
     EVID_MIN, DISAGREE, RATE_R, REFERENCE_DT_S, RES_GATE2, RES_PERSIST, RES_SKIP, WIT_THR, WIT_TAU, WIT_HOLD, TH_G,
-    G_OK, WIT_LEFT, WIT_PERSIST, WIT_T, WIT_SETTLE,
+    G_OK, WIT_LEFT, WIT_PERSIST, WIT_T, WIT_SETTLE, WEAK_RW,
 )
 from .fixed_lag_kernel import (
     R_DS, R_DT, R_F12, R_FIN, R_FOK, R_LINK, R_PF, R_PP, R_T, R_XF, R_XP, R_XS, R_Z, smooth_ring,
@@ -442,7 +442,13 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
             lam_d = 1.0
         pc /= lam_m
         pd /= lam_d
-        pcd /= math.sqrt(lam_m * lam_d)
+        if C[WEAK_RW] != 0.0 and C[MIN_ACC] <= abs(a_load_f) < C[WEAK_ACC]:
+            # a weak sample sees only the line c g sin th + o: scaling the offset's covariance row keeps the mass
+            # correlated with an offset that forgets, and those samples then pin the mass anywhere along that line.
+            # The offset's forgetting as a random walk of the offset alone (its variance grows, the covariance not)
+            pcd /= math.sqrt(lam_m)
+        else:
+            pcd /= math.sqrt(lam_m * lam_d)
     # forgetting in covariance form, never above the prior variance (no wind-up)
     elif pc / lam_m < C[P0_C] and pd / lam_m < C[P0_D]:
         pc /= lam_m

@@ -103,7 +103,8 @@ WIT_TAU = 89  # ... the time constant (s) of the pull of the gyro's integrated p
 WIT_HOLD = 90  # ... how long (s) the hold lasts after the last disagreement; a disagreement that lasts WIT_PERSIST (s)
 WIT_PERSIST = 91  #   is a lasting change, not a fault: the witness re-locks to the grade
 WIT_SETTLE = 92  # ... and after a (re)lock it follows the grade this long (s) before it may disagree
-CHAIN_SET = 93  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+WEAK_RW = 93  # 1: on a weak sample the offset's forgetting adds variance to the offset alone (a random walk)
+CHAIN_SET = 94  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8

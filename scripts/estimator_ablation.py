@@ -47,6 +47,8 @@ VARIANTS: list[tuple[str, str, dict]] = [
      {"min_accel_mps2": 0.05, "point_min_accel_mps2": None}),
     ("- the point member's constant-speed samples counted as correlated (at full weight)", "dffrls-aekf",
      {"weak_accel_noise_factor": 1.0}),
+    ("- the offset forgotten as a random walk on those samples (its covariance scaled, as before session 58)",
+     "dffrls-aekf", {"weak_offset_random_walk": False}),
     ("- measured electric braking used (traction samples only, as before session 23)", "dffrls-aekf",
      {"braking_samples": False}),
     ("- jump gates on the torque and the accelerometer (none, as before session 24)", "dffrls-aekf",

@@ -338,16 +338,18 @@ def _list() -> int:
 
 
 def _parse_options(items: Sequence[str]) -> dict[str, Any]:
-    """``KEY=VALUE`` strings as keyword options; VALUE a Python literal, else the string itself."""
+    """``KEY=VALUE`` strings as keyword options; VALUE a Python literal (``true`` / ``false`` as well as ``True`` /
+    ``False``), else the string itself (which an option that wants a number or a switch refuses, naming itself)."""
     options: dict[str, Any] = {}
     for item in items:
         key, sep, text = item.partition("=")
         if not sep or not key.strip().isidentifier():
             raise _CliError(f"--option {item!r}: expected KEY=VALUE with KEY an option name")
+        text = text.strip()
         try:
-            value = ast.literal_eval(text.strip())
+            value = ast.literal_eval(text)
         except (ValueError, SyntaxError):
-            value = text.strip()
+            value = {"true": True, "false": False}.get(text.lower(), text)
         options[key.strip()] = value
     return options
 

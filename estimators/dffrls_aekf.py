@@ -70,7 +70,7 @@ from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from . import dffrls_aekf_kernel as kern
 from .base import Estimate, EstimateSeries, Estimator, first_step_dts
-from .filters import MAX_STEP_S, check_int_option
+from .filters import MAX_STEP_S, check_bool_option, check_int_option
 from .regression_front_end import swing_geometry
 
 __all__ = ["DFFRLSAEKF", "DFFRLSAEKFConfig"]
@@ -477,6 +477,9 @@ class DFFRLSAEKFConfig:
             raise ValueError(
                 f"dffrls-aekf: mass_forgetting_ratio must be in [0, 1], got {self.mass_forgetting_ratio!r}")
         check_int_option("dffrls-aekf: stuck_repeats", self.stuck_repeats, ValueError, minimum=0)
+        for f in dataclasses.fields(self):
+            if f.type == "bool":  # a string annotation (``from __future__ import annotations``)
+                check_bool_option(f"dffrls-aekf: {f.name}", getattr(self, f.name), ValueError)
         if not (0.0 <= self.early_blend_kept <= 1.0):  # NaN fails too
             raise ValueError(f"dffrls-aekf: early_blend_kept must be in [0, 1], got {self.early_blend_kept!r}")
         if not self.weak_accel_noise_factor >= 1.0:

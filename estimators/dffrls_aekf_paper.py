@@ -44,7 +44,7 @@ from typing import Any, ClassVar
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator
-from .filters import effective_dt, kalman_update_2x2_h1, repair_pd_2x2
+from .filters import check_bool_option, effective_dt, kalman_update_2x2_h1, repair_pd_2x2
 
 __all__ = ["DFFRLSAEKFPaper"]
 
@@ -91,6 +91,7 @@ class DFFRLSAEKFPaper(Estimator):
             raise ValueError(f"dffrls-aekf-paper: delta must be in [0.5, 1), got {delta!r}")
         if not (isinstance(fading, (int, float)) and 0.0 < fading < 1.0):
             raise ValueError(f"dffrls-aekf-paper: fading must be in (0, 1), got {fading!r}")
+        check_bool_option("dffrls-aekf-paper: adapt_means", adapt_means, ValueError)
         v = self.vehicle
         self.delta, self.sigma, self.b = float(delta), float(sigma), float(fading)
         self.adapt_means = bool(adapt_means)

@@ -120,6 +120,13 @@ def check_int_option(name: str, value: object, error: type[Exception], minimum: 
         raise error(f"{name} must be an integer{bound}, got {value!r}")
 
 
+def check_bool_option(name: str, value: object, error: type[Exception]) -> None:
+    """Validate a switch (``bool`` or ``np.bool_``; not 1, not ``"false"``, which Python reads as true), raising
+    ``error`` with a message that names it."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise error(f"{name} must be True or False, got {value!r}")
+
+
 def hold_last_valid(x: np.ndarray) -> np.ndarray:
     """Hold the last valid value of a 1-D float array over its missing (non-finite) samples.
 

@@ -51,7 +51,7 @@ from typing import Any, ClassVar
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
 from .base import Estimate, Estimator, reference_and_prior_mass
-from .filters import capped_dt, repair_pd_2x2
+from .filters import capped_dt, check_bool_option, repair_pd_2x2
 from .regression_front_end import RegressionFrontEnd, swing_geometry
 
 __all__ = ["RegressionFrontEnd", "RLSMassEstimator", "FFRLSMassEstimator", "DFFRLSMassEstimator"]
@@ -300,6 +300,7 @@ class DFFRLSMassEstimator(_RLSMassBase):
             raise ValueError(f"mass_forgetting_ratio must be in [0, 1], got {mass_forgetting_ratio!r}")
         if form not in ("additive", "multiplicative"):
             raise ValueError(f"form must be 'additive' or 'multiplicative', got {form!r}")
+        check_bool_option("vector_forgetting", vector_forgetting, ValueError)
         if not (grade_rate_std_rps >= 0.0 and math.isfinite(grade_rate_std_rps)):
             raise ValueError(f"grade_rate_std_rps must be a finite number >= 0, got {grade_rate_std_rps!r}")
         # tighter residual and a wider regression band than the RLS/FFRLS baselines: with the swinging load in

@@ -293,6 +293,12 @@ def test_estimator_options(good_trace: Path, tmp_path: Path, capsys) -> None:
     assert np.max(np.abs(got - default)) > 50.0  # the option changed something (the bank differs on this trace)
     rc, _, err = _run(capsys, str(good_trace), "--option", "windows_m=(0, 12)", "--option", "gates=False")
     assert rc == 0, err
+    # a switch may be written as JSON writes it: false is False, not the (truthy) string "false"
+    rc, _, err = _run(capsys, str(good_trace), "--option", "weak_offset_random_walk=false", "--out", str(out))
+    assert rc == 0, err
+    got = np.loadtxt(out, delimiter=",", skiprows=1)[:, header.index("mass_kg")]
+    ref = estimators.make("dffrls-aekf", weak_offset_random_walk=False).run(read_trace_csv(good_trace))
+    np.testing.assert_allclose(got, ref.mass_kg, rtol=1e-6)
 
 
 @pytest.mark.parametrize("option, what", [
@@ -300,6 +306,7 @@ def test_estimator_options(good_trace: Path, tmp_path: Path, capsys) -> None:
     ("train_length_m=-3", "windows_m"),
     ("=3", "KEY=VALUE"),
     ("train_length_m", "KEY=VALUE"),
+    ("gates=maybe", "gates must be True or False"),
 ])
 def test_bad_estimator_option(good_trace: Path, tmp_path: Path, capsys, option: str, what: str) -> None:
     out = tmp_path / "never.csv"

@@ -248,6 +248,21 @@ def test_chain_bank_options_are_checked(options: dict, what: str) -> None:
         estimators.make("dffrls-aekf", **options)
 
 
+@pytest.mark.parametrize("name, options, what", [
+    ("dffrls-aekf", {"weak_offset_random_walk": "false"}, "weak_offset_random_walk must be True or False"),
+    ("dffrls-aekf", {"gates": 1}, "gates must be True or False"),
+    ("fused", {"fused_spread_gate": None}, "fused_spread_gate must be True or False"),
+    ("dffrls-aekf-paper", {"adapt_means": "no"}, "adapt_means must be True or False"),
+    ("dffrls", {"vector_forgetting": 0}, "vector_forgetting must be True or False"),
+])
+def test_switches_take_only_true_or_false(name: str, options: dict, what: str) -> None:
+    """A switch given anything but a bool is refused, naming it: the string "false" is truthy in Python, and
+    ``uuom-estimate --option gates=false`` had silently meant True."""
+    with pytest.raises(ValueError, match=what):
+        estimators.make(name, **options)
+    assert estimators.make(name, **{k: np.bool_(False) for k in options}) is not None  # NumPy's bool is a bool
+
+
 def test_env_observer_is_told_the_plants_chains() -> None:
     """The env's plant hangs its load on the vehicle file's chains: its observers run one pendulum of that length
     (the bank is for data whose chains are unknown), unless the options state the swing themselves."""

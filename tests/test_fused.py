@@ -38,10 +38,12 @@ def test_point_mass_world_learns_gravity_at_the_sensors(scenario: str) -> None:
 
     tr = simulate_point_mass(scenario, seed=2)
     fused = estimators.make("fused").run(tr)
-    window = estimators.make("dffrls-aekf").run(tr)
+    # the fixed 14 m window (the registered dffrls-aekf has learnt where gravity acts since session 8, so it is no
+    # longer the comparison this test makes; against it the test had failed since)
+    window = estimators.make("dffrls-aekf", train_length_m=14.0).run(tr)
     mass, slope = _errors(tr, fused)
-    # measured: seed 0 8.6 % / 0.07 deg and 1.3 % / 0.07 deg, seed 2 16.8 % on pm-section1 (start-up mass);
-    # the fixed 14 m window of dffrls-aekf: 1.3 deg
+    # measured (session 58, seed 2): pm-section1 0.7 % / 0.09 deg, pm-resistance-mismatch 7.4 % / 0.10 deg; the
+    # fixed 14 m window 1.30 / 1.32 deg
     assert mass < 20.0 and slope < 0.4
     assert slope < 0.5 * _errors(tr, window)[1]
     assert fused.extras["gravity_weight_sensor"][-1] > 0.7

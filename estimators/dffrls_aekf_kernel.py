@@ -428,6 +428,8 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         h1 = h1 + C[MU0] * h2
         h2 = 0.0
     e = y - h1 * c - h2 * dd
+    # a weak sample: below the common gate, above a point-mass filter's own (the only filter with a gate below it)
+    weak = C[MIN_ACC] <= abs(a_load_f) < C[WEAK_ACC]
     lam = C[DELTA] + (1.0 - C[DELTA]) * math.exp(-C[SIGMA] * abs(e))
     if C[RATE_R] != 1.0:  # the forgetting per second kept at another sample rate
         lam = lam ** C[RATE_R]
@@ -442,7 +444,7 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
             lam_d = 1.0
         pc /= lam_m
         pd /= lam_d
-        if C[WEAK_RW] != 0.0 and C[MIN_ACC] <= abs(a_load_f) < C[WEAK_ACC]:
+        if weak and C[WEAK_RW] != 0.0:
             # a weak sample sees only the line c g sin th + o: scaling the offset's covariance row keeps the mass
             # correlated with an offset that forgets, and those samples then pin the mass anywhere along that line.
             # The offset's forgetting as a random walk of the offset alone (its variance grows, the covariance not)
@@ -470,7 +472,7 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         pcd -= k2 * ph1
         pd -= k2 * ph2
     else:
-        if abs(a_load_f) < C[WEAK_ACC]:
+        if weak:
             # below the common gate (a point-mass filter only): the sample is mostly the grade's level and the offset's
             # prior, and it is correlated with its neighbours over ~CORR_N samples: counted WEAK_R times noisier
             s_m += r_m * (C[WEAK_R] - 1.0)

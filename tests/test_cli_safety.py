@@ -198,8 +198,10 @@ def test_kill_at_random_points(tmp_path: Path, seed: int) -> None:
         proc.send_signal(signal.SIGINT if rng.random() < 0.5 else signal.SIGKILL)
         proc.communicate(timeout=120)
         assert out.read_text() in (PREVIOUS, reference.read_text())
-        assert proc.returncode in (0, 130, -signal.SIGKILL)
-        if proc.returncode != -signal.SIGKILL:
+        # -SIGINT: the signal came before the interpreter had installed its handler (a loaded machine starts Python
+        # slowly), so nothing had been written yet
+        assert proc.returncode in (0, 130, -signal.SIGKILL, -signal.SIGINT)
+        if proc.returncode >= 0:
             assert _temps(tmp_path) == []
         remove_stale_temps(out)
         assert _temps(tmp_path) == []

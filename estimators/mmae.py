@@ -83,6 +83,7 @@ from . import mmae_kernel as _kernel
 from .mmae_config import MMAEConfig, MMAEConfigError
 
 _REPAIR_EVERY = 50
+_MAX_CURVATURE_RAD_PER_M = 0.05  # the bound of the curvature's std (a 20 m vertical radius)
 _RELOCK_AFTER = 40  # consecutive outliers of one measurement after which it is believed again (a real step)
 _SLOPE_TAU_S = 1.0  # low-pass of the model-free slope that feeds the rear-section slope history
 # the resistance offset learns only while the train clearly moves: near standstill the plant's friction is static
@@ -163,6 +164,13 @@ class MMAEEstimator(Estimator):
         self._p0_mu = float(cfg.resistance_std) ** 2
         self._q_mu = float(cfg.resistance_walk_std) ** 2
         self._estimates_mu = self._p0_mu > 0.0 or self._q_mu > 0.0
+        # what the covariance may grow to over long gaps: the speed's and slope's no worse than twice the prior's std
+        # (the speed's at least 5 m/s, faster than any monorail); the curvature's random walk grows past its prior
+        # on every run (133x its variance on the project's runs), so it is bounded by a 20 m vertical radius; the
+        # offset's is unbounded where it has no prior (it only grows linearly)
+        self._p_max = np.array([max(4.0 * self._p0_v, 25.0), 4.0 * self._p0_th,
+                                max(4.0 * self._p0_kappa, _MAX_CURVATURE_RAD_PER_M**2),
+                                4.0 * self._p0_mu if self._p0_mu > 0.0 else math.inf])
         self.dim_x = 4 if self._estimates_mu else 3
         # rear-slope history along the distance travelled
         self._rear_offset = float(cfg.rear_offset_m)
@@ -273,7 +281,7 @@ class MMAEEstimator(Estimator):
         # brake / static friction): no motion, only the process noise.
         th_rear = math.nan if held else self._rear_slope()
         _kernel.predict(self._x, self._P, self._consts, torque_nm, dt, held, speed_abs, th_rear, self._radius,
-                        1.0 / self._v_s, self._q_v, self._q_th_floor, self._q_kappa_per_m, self._q_mu)
+                        1.0 / self._v_s, self._q_v, self._q_th_floor, self._q_kappa_per_m, self._q_mu, self._p_max)
 
     def _condition(self) -> None:
         # Both the prediction (Phi P Phi^T + Q) and the update (P - g g^T / s) are symmetric by construction;

@@ -43,9 +43,10 @@ def pack_constants(inv_meff: np.ndarray, gf: np.ndarray, gf_mu: np.ndarray, gr: 
 @njit(cache=True)
 def predict(x: np.ndarray, P: np.ndarray, m: np.ndarray, torque_nm: float, dt: float, held: bool,
             speed_abs: float, th_rear: float, radius: float, inv_vs: float, q_v: float, q_th: float,
-            q_kappa_per_m: float, q_mu: float) -> None:  # pragma: no cover - compiled
+            q_kappa_per_m: float, q_mu: float, p_max: np.ndarray) -> None:  # pragma: no cover - compiled
     """Propagate every model over ``dt``: RK4 of the speed equation, slope advanced by curvature x distance,
-    covariance by the first-order transition matrix (identity when ``held`` at rest) plus process noise."""
+    covariance by the first-order transition matrix (identity when ``held`` at rest) plus process noise, each
+    variance then bounded by ``p_max`` (its row and column scaled down with it, so P stays positive definite)."""
     n = x.shape[0]
     ns = N_STATES
     h = dt
@@ -94,16 +95,28 @@ def predict(x: np.ndarray, P: np.ndarray, m: np.ndarray, torque_nm: float, dt: f
                 for k in range(ns):
                     s += phi[a, k] * P[j, k, b]
                 tmp[a, b] = s
+        # the upper triangle, mirrored: P stays exactly symmetric. Computing both triangles let their round-off
+        # differ, and over a run of long steps (dt = 60 s) the transition's dt-sized entries multiplied that
+        # difference ~15x per step, past what the repair every _REPAIR_EVERY samples catches (fuzz, session 59)
         for a in range(ns):
-            for b in range(ns):
+            for b in range(a, ns):
                 s = 0.0
                 for k in range(ns):
                     s += tmp[a, k] * phi[b, k]
                 P[j, a, b] = s
+                P[j, b, a] = s
         P[j, 0, 0] += q_v * dt
         P[j, 1, 1] += q_th * dt
         P[j, 2, 2] += q_kappa_per_m * speed_abs * dt
         P[j, 3, 3] += q_mu * dt
+        # a run of huge steps (a logger that stalled for minutes, 200 times over) multiplies the speed-slope-curvature
+        # block by the transition's dt-sized entries each step: bounded here, it stays finite and symmetric
+        for a in range(ns):
+            if P[j, a, a] > p_max[a]:
+                r = math.sqrt(p_max[a] / P[j, a, a])
+                for b in range(ns):
+                    P[j, a, b] *= r
+                    P[j, b, a] *= r
 
 
 @njit(cache=True)

@@ -485,8 +485,8 @@ class DFFRLSAEKFConfig:
         if not self.weak_accel_noise_factor >= 1.0:
             raise ValueError(f"dffrls-aekf: weak_accel_noise_factor must be >= 1, got {self.weak_accel_noise_factor!r}")
         mu0 = v.running_resistance if self.running_resistance is None else float(self.running_resistance)
-        if not (0.0 <= mu0 < 0.5):
-            raise ValueError(f"dffrls-aekf: running_resistance must be in [0, 0.5), got {mu0!r}")
+        if not (0.0 <= mu0 <= 0.5):  # the vehicle file's plausible range
+            raise ValueError(f"dffrls-aekf: running_resistance must be in [0, 0.5], got {mu0!r}")
         m_ref = v.empty_mass_kg + 0.5 * v.rated_load_kg
         prior = m_ref if self.prior_mass_kg is None else float(self.prior_mass_kg)
         if not (v.empty_mass_kg <= prior <= v.max_mass_kg):
@@ -520,7 +520,9 @@ class DFFRLSAEKFConfig:
         C[kern.C_MAX] = v.max_mass_kg / m_ref
         C[kern.C0] = c0
         C[kern.MU0] = mu0
-        C[kern.MU_MAX] = self.mu_max
+        # the offset's bound holds the vehicle's own coefficient: a file with mu = 0.3 had started the offset
+        # outside a 0.1 bound, which clamped it on the first update
+        C[kern.MU_MAX] = max(self.mu_max, 2.0 * mu0)
         C[kern.CUT_HZ] = self.cutoff_hz
         C[kern.FAST_HZ] = 5.0  # speed for the pendulum's forcing: well above the swing (0.35 Hz at 2 m)
         C[kern.CHAIN_L] = chain * (factors[0] if len(factors) == 1 else 1.0)

@@ -107,8 +107,8 @@ def default_config() -> dict[str, Any]:
 
 CONFIG_DOCS: dict[str, str] = {
     "vehicle": "VehicleParams, a dict of VehicleParams field overrides, or None for the spec's DX80/176Y.",
-    "policy_hz": "Agent decisions per second; the action is held for physics_hz/policy_hz physics ticks.",
-    "physics_hz": "Plant, sensor and estimator rate (Hz); must be an integer multiple of policy_hz.",
+    "policy_hz": "Agent decisions per second, in [0.5, 1000]; the action is held for physics_hz/policy_hz physics ticks.",
+    "physics_hz": "Plant, sensor and estimator rate (Hz), in [100, 5000]; must be an integer multiple of policy_hz.",
     "observer": "What the agent is told about mass and slope: 'dffrls-aekf', any registered estimator name, "
     "'oracle' (true values) or 'none' (the prior only).",
     "observer_options": "Keyword options passed to estimators.make(observer, vehicle, **options); for 'oracle': "
@@ -126,7 +126,7 @@ CONFIG_DOCS: dict[str, str] = {
     "scenario": "None for a random track per reset, or 'section1' | 'section2' | 'roadtest' (paper's fixed runs).",
     "track_length_m": "(low, high) length of random tracks in metres (the spec's roadways allow 200-1500 m; the "
     "default is shorter so episodes last a few hundred to a few thousand policy steps).",
-    "max_grade_deg": "Steepest grade of random tracks (deg).",
+    "max_grade_deg": "Steepest grade of random tracks (deg), in (0, 30].",
     "allow_infeasible": "If True, random tracks may hold grades the drawn load cannot climb (the stall case).",
     "feasibility_margin": "Feasible random tracks keep every up-grade below this fraction of the steepest grade the "
     "drawn load can climb (with the drawn mu and adhesion).",
@@ -315,8 +315,10 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
     for key, value in given.items():
         cfg[key] = copy.deepcopy(value)
 
-    _check_number(cfg, "policy_hz", 0.0, 1000.0, open_lo=True)
-    _check_number(cfg, "physics_hz", 0.0, 10_000.0, open_lo=True)
+    # the plant's own range (PlantConfig), checked here so make() refuses what reset() would; and a decision at
+    # least every 2 s: 1e-9 Hz had asked for 2e11 physics ticks per step (MemoryError; session 59's config fuzz)
+    _check_number(cfg, "policy_hz", 0.5, 1000.0)
+    _check_number(cfg, "physics_hz", 100.0, 5000.0)
     ratio = cfg["physics_hz"] / cfg["policy_hz"]
     if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
         raise ConfigError(
@@ -336,7 +338,7 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
             f"config key 'scenario' must be None or one of {', '.join(SCENARIOS)}, got {cfg['scenario']!r}"
         )
     _check_range(cfg, "track_length_m", 50.0, 5000.0)
-    _check_number(cfg, "max_grade_deg", 0.0, 30.0)
+    _check_number(cfg, "max_grade_deg", 0.0, 30.0, open_lo=True)  # 0 had passed here and failed in the track
     if not isinstance(cfg["allow_infeasible"], bool):
         raise ConfigError(f"config key 'allow_infeasible' must be True or False, got {cfg['allow_infeasible']!r}")
     _check_number(cfg, "feasibility_margin", 0.0, 1.0, open_lo=True)

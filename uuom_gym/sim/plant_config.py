@@ -92,8 +92,9 @@ class PlantConfig:
                 bad(f.name, "must be a finite number")
         if not 0.0 <= self.load_kg <= 1.5 * max(vehicle.rated_load_kg, 1.0):
             bad("load_kg", f"must be in [0, 1.5 x rated load = {1.5 * vehicle.rated_load_kg:g}]")
-        if self.running_resistance is not None and not 0.0 <= self.running_resistance < 0.5:
-            bad("running_resistance", "must be in [0, 0.5)")
+        # the vehicle file's and the env config's range (0.5 itself had passed both and failed here)
+        if self.running_resistance is not None and not 0.0 <= self.running_resistance <= 0.5:
+            bad("running_resistance", "must be in [0, 0.5]")
         if self.adhesion is not None and not 0.0 < self.adhesion <= 1.0:
             bad("adhesion", "must be in (0, 1]")
         if not 0.0 <= self.wheel_wear_m < 0.5 * vehicle.drive_wheel_radius_m:

@@ -90,7 +90,7 @@ class AUPFConfig:
 
     def __post_init__(self) -> None:
         check_int_option("n_particles", self.n_particles, AUPFConfigError, minimum=2)
-        check_int_option("seed", self.seed, AUPFConfigError)
+        check_int_option("seed", self.seed, AUPFConfigError, minimum=0)  # numpy's generator refuses a negative one
         positive = ["gear_ratio", "initial_radius_std_m", "radius_process_std_m_per_sqrt_s", "slip_process_std",
                     "macro_slip_process_std", "slip_time_constant_s", "creep_slip", "adhesion",
                     "slip_recovery_rate_hz", "max_slip", "speed_std_mps", "motor_speed_std_radps", "alpha",

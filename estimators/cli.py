@@ -38,6 +38,7 @@ from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleFileError, VehicleParams
 
 from .base import EstimateSeries
 from .metrics import ErrorAccumulator, chi2_band
+from .option_ranges import check_option_values
 from .registry import UnknownEstimatorError, available, get_class, parse_names
 
 __all__ = ["main", "summarize", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED", "output_columns", "names_argument"]
@@ -358,6 +359,7 @@ def _make(cls: type, vehicle, name: str, items: Sequence[str]):
     """The estimator with its ``--option`` values; a bad option is a one-line error naming it."""
     options = _parse_options(items)
     try:
+        check_option_values("", options)  # (the message below names the estimator)
         return cls(vehicle, **options)
     except (TypeError, ValueError) as exc:
         raise _CliError(f"--option: {name}: {exc}") from None

@@ -469,6 +469,9 @@ class DFFRLSAEKFConfig:
                     x == math.inf and not name.startswith("max_")) or x < 0 or (name in positive and x <= 0):
                 kind = "> 0" if name in positive else ">= 0"
                 raise ValueError(f"dffrls-aekf: {name} must be a finite number {kind}, got {x!r}")
+        if 0.0 < self.accel_std_per_noise < 0.01:  # the noise read online is divided by its square
+            raise ValueError(f"dffrls-aekf: accel_std_per_noise must be 0 (off) or >= 0.01, got "
+                             f"{self.accel_std_per_noise!r}")
         if not (0.5 <= self.delta < 1.0):
             raise ValueError(f"dffrls-aekf: delta must be in [0.5, 1), got {self.delta!r}")
         if not (0.0 < self.fading < 1.0):

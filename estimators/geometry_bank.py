@@ -71,6 +71,10 @@ class GeometryBank(Estimator):
         elif "train_length_m" in options:
             raise ValueError(f"{self.name}: give windows_m or train_length_m, not both")
         # None: the vehicle's length, as for a single filter
+        if isinstance(windows_m, (str, bytes)) or not isinstance(windows_m, Sequence | np.ndarray) or any(
+                w is not None and (isinstance(w, bool) or not isinstance(w, (int, float, np.integer, np.floating)))
+                for w in windows_m):
+            raise ValueError(f"{self.name}: windows_m must be a sequence of lengths (m), got {windows_m!r}")
         windows = [self.vehicle.length_m if w is None else float(w) for w in windows_m]
         if not windows or any(not (math.isfinite(w) and w >= 0.0) for w in windows):
             raise ValueError(f"{self.name}: windows_m must be finite lengths >= 0, got {windows_m!r}")

@@ -13,6 +13,7 @@ from typing import Any, Iterable
 from uuom_core.vehicle import VehicleParams
 
 from .base import Estimator
+from .option_ranges import check_option_values
 
 _REGISTRY: dict[str, str] = {
     # paper 000 (Liu et al. 2023) and its baselines, spec §5.1-5.5
@@ -94,8 +95,11 @@ def parse_names(given: str | Iterable[str], *, also: Iterable[str] = ()) -> list
 
 
 def make(name: str, vehicle: VehicleParams | None = None, **options: Any) -> Estimator:
-    """Construct the estimator registered under ``name``."""
-    return get_class(name)(vehicle, **options)
+    """Construct the estimator registered under ``name``; every real-valued option is first checked against its
+    plausible range (:data:`estimators.option_ranges.OPTION_RANGES`: a ``ValueError`` naming it)."""
+    cls = get_class(name)
+    check_option_values(name, options)
+    return cls(vehicle, **options)
 
 
 __all__ = ["UnknownEstimatorError", "available", "get_class", "make", "parse_names", "register"]

@@ -303,7 +303,7 @@ def test_estimator_options(good_trace: Path, tmp_path: Path, capsys) -> None:
 
 @pytest.mark.parametrize("option, what", [
     ("no_such=1", "unknown option"),
-    ("train_length_m=-3", "windows_m"),
+    ("train_length_m=-3", "train_length_m must be a number in"),
     ("=3", "KEY=VALUE"),
     ("train_length_m", "KEY=VALUE"),
     ("gates=maybe", "gates must be True or False"),

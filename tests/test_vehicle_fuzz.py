@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 import estimators
 import uuom_gym  # noqa: F401  (registers the env ids)
-from uuom_core.vehicle import DEFAULT_VEHICLE, PLAUSIBLE_RANGES, VehicleParams
+from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, PLAUSIBLE_RANGES, VehicleParams
 
 from test_estimators_fuzz import _check_covariances, _check_estimate, clean_stream
 
@@ -49,6 +49,10 @@ def _repaired(kw: dict[str, float]) -> VehicleParams:
     room = 0.49 * kw["empty_mass_kg"] - kw["hook_mass_kg"]
     kw["carrying_wheel_mass_kg"] = max(PLAUSIBLE_RANGES["carrying_wheel_mass_kg"][0],
                                        min(kw["carrying_wheel_mass_kg"], room / 4.0))
+    # the drive must haul the rated train on a level wet rail: else the running resistance comes down
+    haul = min(kw["max_traction_n"], kw["adhesion_wet"] * kw["clamp_force_n"])
+    rated_mass = kw["empty_mass_kg"] + kw["rated_load_kg"]
+    kw["running_resistance"] = min(kw["running_resistance"], 0.9 * haul / (G_MPS2 * rated_mass))
     return VehicleParams(**kw)
 
 

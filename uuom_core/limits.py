@@ -99,6 +99,20 @@ def max_climbable_grade_rad(
     return math.asin(ratio / amp) - math.atan(mu)
 
 
+def max_descendable_grade_rad(vehicle: VehicleParams, mass_kg: float, running_resistance: float | None = None) -> float:
+    """Steepest down-grade on which the service brake still decelerates the train: ``sin t − mu cos t = F_b / (M g)``.
+
+    Returns ``pi/2`` when the brake holds the train on any grade. Beyond it no controller keeps the speed limit, so
+    a random track for this train does not hold it (:func:`uuom_gym.sim.track.random_track`).
+    """
+    mu = vehicle.running_resistance if running_resistance is None else running_resistance
+    ratio = vehicle.service_brake_n / (mass_kg * G_MPS2)
+    amp = math.sqrt(1.0 + mu * mu)
+    if ratio >= amp:
+        return math.pi / 2
+    return min(math.pi / 2, math.asin(ratio / amp) + math.atan(mu))
+
+
 def speed_limit_mps_array(
     vehicle: VehicleParams,
     mass_kg: float,
@@ -128,6 +142,7 @@ __all__ = [
     "brake_deceleration_mps2",
     "load_speed_limit_mps",
     "max_climbable_grade_rad",
+    "max_descendable_grade_rad",
     "max_traction_force_n",
     "speed_limit_mps",
     "speed_limit_mps_array",

@@ -76,18 +76,18 @@ class VehicleParams:
     The reference point of the train (its position) is the drive section's centre.
 
     carrying_wheel_mass_kg : float
-        Mass of one of the four carrying wheels (60 kg). [1, 2 000] kg.
+        Mass of one of the four carrying wheels (60 kg). [10, 2 000] kg.
     drive_section_length_m, beam_section_length_m : float
         Length of the drive section (10 m) and of the lifting-beam section (7 m). [1, 100] m each.
     drive_wheel_base_m, beam_wheel_base_m : float
         Distance between the two carrying wheels of each section (8 m, 6 m), centred on the section and at most
-        its length. [0.5, 100] m each.
+        its length. [1, 100] m each.
     drive_hang_m, beam_hang_m : float
         Height of each section's pivot line (wheel axles) above its centre of mass (0.6 m, 0.5 m). [0, 5] m each.
     section_height_m : float
         Height of the sections as rigid boxes, for their moment of inertia (1 m). [0.1, 5] m.
     coupler_gap_m : float
-        Gap between the sections' ends, bridged by the compliant coupler (0.5 m). [0.05, 10] m.
+        Gap between the sections' ends, bridged by the compliant coupler (0.5 m). [0.1, 10] m.
     drive_section_mass_share : float
         Share of the drive section in the empty mass without the wheels and the hook (0.56). [0.05, 0.95].
     chain_length_m : float
@@ -256,15 +256,17 @@ PLAUSIBLE_RANGES: dict[str, tuple[float, float, str]] = {
     "max_speed_rated_mps": (0.05, 10.0, "m/s"),
     "max_grade_deg": (1.0, 40.0, "deg"),
     "length_m": (2.0, 200.0, "m"),
-    "carrying_wheel_mass_kg": (1.0, 2_000.0, "kg"),
+    # (session 59: below ~10 kg, 0.05 m and 0.5 m the pymunk plant no longer simulates the train faithfully: the
+    # oracle controller tripped or rolled back on the project's own tracks)
+    "carrying_wheel_mass_kg": (10.0, 2_000.0, "kg"),
     "drive_section_length_m": (1.0, 100.0, "m"),
-    "drive_wheel_base_m": (0.5, 100.0, "m"),
+    "drive_wheel_base_m": (1.0, 100.0, "m"),
     "drive_hang_m": (0.0, 5.0, "m"),
     "beam_section_length_m": (1.0, 100.0, "m"),
-    "beam_wheel_base_m": (0.5, 100.0, "m"),
+    "beam_wheel_base_m": (1.0, 100.0, "m"),
     "beam_hang_m": (0.0, 5.0, "m"),
     "section_height_m": (0.1, 5.0, "m"),
-    "coupler_gap_m": (0.05, 10.0, "m"),
+    "coupler_gap_m": (0.1, 10.0, "m"),
     "drive_section_mass_share": (0.05, 0.95, ""),
     "chain_length_m": (0.1, 20.0, "m"),
     "chain_spacing_m": (0.1, 100.0, "m"),
@@ -323,6 +325,11 @@ def _validate(p: VehicleParams) -> list[str]:
     need(4 * p.carrying_wheel_mass_kg + p.hook_mass_kg < 0.5 * p.empty_mass_kg,
          f"4 x carrying_wheel_mass_kg + hook_mass_kg = {4 * p.carrying_wheel_mass_kg + p.hook_mass_kg:g} must be "
          f"below half of empty_mass_kg = {p.empty_mass_kg!r}")
+    haul = min(p.max_traction_n, p.adhesion_wet * p.clamp_force_n)
+    need(haul > p.running_resistance * G_MPS2 * p.rated_mass_kg,
+         f"the drive (min(max_traction_n, adhesion_wet x clamp_force_n) = {haul:g} N) cannot haul the rated train "
+         f"on a level wet rail (running_resistance x g x rated mass = "
+         f"{p.running_resistance * G_MPS2 * p.rated_mass_kg:g} N)")
     return problems
 
 

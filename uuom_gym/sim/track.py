@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from uuom_core.limits import max_climbable_grade_rad
+from uuom_core.limits import max_climbable_grade_rad, max_descendable_grade_rad
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
 
@@ -188,7 +188,9 @@ def random_track(
         Steepest grade drawn, in (0, 45).
     vehicle, load_kg, running_resistance, adhesion :
         When ``feasible`` and ``load_kg`` is given, up-grades are capped at ``feasibility_margin`` times
-        :func:`uuom_core.limits.max_climbable_grade_rad` for that loaded vehicle, so the train can climb them.
+        :func:`uuom_core.limits.max_climbable_grade_rad` for that loaded vehicle, so the train can climb them, and
+        down-grades at the same fraction of :func:`uuom_core.limits.max_descendable_grade_rad`, so its service brake
+        can hold it on them.
     feasible : bool
         False leaves the grades uncapped (a track that may stall the train).
     """
@@ -209,6 +211,12 @@ def random_track(
         climb = max_climbable_grade_rad(veh, veh.empty_mass_kg + load_kg, running_resistance, adhesion)
         up_cap = min(up_cap, feasibility_margin * math.degrees(climb))
     down_cap = max_grade_deg
+    if feasible and load_kg is not None:
+        # nor down-grades its service brake cannot hold (a vehicle file with weak brakes or a heavy train: even the
+        # oracle tripped on them; no cap for the project's vehicle, whose brake holds 21 deg at rated load)
+        veh = vehicle or DEFAULT_VEHICLE
+        descend = max_descendable_grade_rad(veh, veh.empty_mass_kg + load_kg, running_resistance)
+        down_cap = min(down_cap, feasibility_margin * math.degrees(descend))
 
     s = np.arange(0.0, total + grid_m / 2, grid_m)
     slope = np.zeros_like(s)

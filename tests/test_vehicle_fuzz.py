@@ -20,7 +20,9 @@ from hypothesis import strategies as st
 
 import estimators
 import uuom_gym  # noqa: F401  (registers the env ids)
+from uuom_core.limits import max_descendable_grade_rad
 from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, PLAUSIBLE_RANGES, VehicleParams
+from uuom_gym.sim.track import random_track
 
 from test_estimators_fuzz import _check_covariances, _check_estimate, clean_stream
 
@@ -121,3 +123,27 @@ def test_every_estimator_stays_finite_with_any_valid_vehicle(v: VehicleParams, s
 def test_the_ranges_the_fuzz_narrowed(field: str, value: float) -> None:
     with pytest.raises(ValueError, match=field):
         DEFAULT_VEHICLE.with_changes(**{field: value})
+
+
+def test_the_service_brake_holds_the_train_on_the_steepest_descent_it_allows() -> None:
+    v = DEFAULT_VEHICLE
+    mass = v.rated_mass_kg
+    t = max_descendable_grade_rad(v, mass)
+    downhill = mass * G_MPS2 * (math.sin(t) - v.running_resistance * math.cos(t))
+    assert downhill == pytest.approx(v.service_brake_n, rel=1e-9)
+    assert 20.0 < math.degrees(t) < 22.0  # the project's vehicle: above the env's 15 deg, so no track of it changes
+
+
+def test_random_tracks_stay_within_what_the_brake_holds() -> None:
+    weak = DEFAULT_VEHICLE.with_changes(service_brake_n=40_000.0, emergency_brake_n=60_000.0)
+    cap = 0.85 * math.degrees(max_descendable_grade_rad(weak, weak.rated_mass_kg, 0.02))
+    assert cap < 10.0
+    for seed in range(5):
+        track = random_track(np.random.default_rng(seed), max_grade_deg=15.0, vehicle=weak,
+                             load_kg=weak.rated_load_kg, running_resistance=0.02)
+        assert math.degrees(track.slope_rad.min()) >= -cap - 1e-9
+
+
+def test_a_drive_that_cannot_haul_the_rated_train_is_refused() -> None:
+    with pytest.raises(ValueError, match="cannot haul the rated train"):
+        DEFAULT_VEHICLE.with_changes(max_traction_n=5_000.0)

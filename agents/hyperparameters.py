@@ -73,7 +73,54 @@ def load_hyperparams(algo: str, conf_file: Path | None = None, overrides: list[s
                                                  *NOISE_KEYS):
             raise TrainConfigError(f"--hyperparams {item!r}: {algo} has no hyperparameter {key!r}")
         hp[key] = value
+    check_hp_ranges(hp)
     return hp
+
+
+# What each numeric hyperparameter may be: (low, high, integer?) closed, None = open-ended. SB3 checks few of these
+# itself; a uuom-train probe (session 59) crashed with a traceback on gamma = 1.5 and gae_lambda = 2 (NaN in the
+# networks), n_epochs = 0 (an UnboundLocalError inside SB3) and vf_coef = nan (a string reached torch), and trained
+# on clip_range = -0.1 and max_grad_norm = -1 without a word.
+HP_RANGES: dict[str, tuple[float | None, float | None, bool]] = {
+    "learning_rate": (0.0, 1.0, False), "gamma": (0.0, 1.0, False), "gae_lambda": (0.0, 1.0, False),
+    "clip_range": (0.0, 10.0, False), "clip_range_vf": (0.0, 10.0, False), "vf_coef": (0.0, 100.0, False),
+    "max_grad_norm": (0.0, None, False), "target_kl": (0.0, None, False), "tau": (0.0, 1.0, False),
+    "target_policy_noise": (0.0, 10.0, False), "target_noise_clip": (0.0, 10.0, False), "noise_std": (0.0, 10.0, False),
+    "n_steps": (1, None, True), "batch_size": (1, None, True), "n_epochs": (1, None, True),
+    "buffer_size": (1, None, True), "learning_starts": (0, None, True), "policy_delay": (1, None, True),
+    "sde_sample_freq": (-1, None, True), "gradient_steps": (-1, None, True), "n_envs": (1, None, True),
+    "n_timesteps": (1, None, True),
+}
+_OPEN_LOW = {"learning_rate", "gamma", "clip_range", "clip_range_vf", "max_grad_norm", "target_kl", "tau"}
+"""Keys whose low bound is exclusive (a discount or step of 0 is no training)."""
+
+
+def check_hp_ranges(hp: dict[str, Any]) -> None:
+    """Every numeric hyperparameter of :data:`HP_RANGES` a finite number in its range (``lin_<x>`` schedules and
+    ``None`` where SB3 takes them are left to their own checks); raises :class:`TrainConfigError` naming the key."""
+    for key, (lo, hi, integer) in HP_RANGES.items():
+        if key not in hp or hp[key] is None or (isinstance(hp[key], str) and key in SCHEDULE_KEYS):
+            continue
+        value = hp[key]
+        kind = "an integer" if integer else "a number"
+        # (an integer key may be written 2e5: rl-zoo files tag such numbers !!float)
+        ok = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value) \
+            and (not integer or float(value).is_integer())
+        ok = ok and (lo is None or value > lo or (value == lo and key not in _OPEN_LOW)) \
+            and (hi is None or value <= hi)
+        if not ok:
+            low = "" if lo is None else (f"> {lo}" if key in _OPEN_LOW else f">= {lo}")
+            high = "" if hi is None else f"<= {hi}"
+            bounds = " and ".join(b for b in (low, high) if b)
+            raise TrainConfigError(f"hyperparameter {key} must be {kind} {bounds}, got {value!r}")
+    tf = hp.get("train_freq")
+    if tf is not None:
+        n, unit = (tf[0], tf[1]) if isinstance(tf, (list, tuple)) and len(tf) == 2 else (tf, "step")
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1 or unit not in ("step", "episode"):
+            raise TrainConfigError(f"hyperparameter train_freq must be an integer >= 1 or [n, 'step' | 'episode'], "
+                                   f"got {tf!r}")
+    if "gradient_steps" in hp and hp["gradient_steps"] == 0:
+        raise TrainConfigError("hyperparameter gradient_steps must be >= 1 or -1, got 0")
 
 
 def parse_value(text: str) -> Any:

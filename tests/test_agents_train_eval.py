@@ -158,6 +158,12 @@ TINY_CLI = ["--observer", "oracle", "--n-envs", "2", "--eval-freq", "0", "--no-p
         (["--timesteps", "10", "--env-kwargs", '{"track_lenght_m": 5}'], "track_lenght_m"),
         (["--timesteps", "10", "--residual", "-1"], "residual must be 0 (off) or in (0, 2]"),
         (["--timesteps", "10", "--resume"], "nothing to resume"),
+        # found by a probe of --hyperparams (session 59): these had crashed inside SB3 or trained silently
+        (["--timesteps", "10", "--hyperparams", "gamma=1.5"], "gamma must be a number > 0.0 and <= 1.0, got 1.5"),
+        (["--timesteps", "10", "--hyperparams", "n_epochs=0"], "n_epochs must be an integer >= 1, got 0"),
+        (["--timesteps", "10", "--hyperparams", "vf_coef=nan"], "vf_coef must be a number"),
+        (["--timesteps", "10", "--hyperparams", "clip_range=-0.1"], "clip_range must be a number > 0.0"),
+        (["--timesteps", "10", "--algo", "sac", "--hyperparams", "train_freq=0"], "train_freq must be an integer"),
     ],
 )
 def test_bad_training_input_is_one_line_and_creates_nothing(tmp_path, capsys, args, fragment):

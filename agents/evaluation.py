@@ -431,6 +431,8 @@ def check_config(config: EvalConfig) -> None:
         raise EvalConfigError(f"episodes must be >= 1, got {config.episodes}")
     if config.workers < 1:
         raise EvalConfigError(f"workers must be >= 1, got {config.workers}")
+    if config.seed_base < 0:  # the env's reset() refuses a negative seed, after the workers had started
+        raise EvalConfigError(f"seed must be >= 0, got {config.seed_base}")
     if not config.controllers:
         raise EvalConfigError("no controllers given")
     for spec in config.controllers:
@@ -439,7 +441,7 @@ def check_config(config: EvalConfig) -> None:
         if name in CONTROLLERS:
             try:
                 CONTROLLERS[name](VehicleParams(), **opts)
-            except TypeError as exc:
+            except (TypeError, ValueError) as exc:
                 raise EvalConfigError(f"controller {spec!r}: {exc}") from None
         elif opts or not (Path(base) / "model.zip").is_file():
             raise EvalConfigError(

@@ -85,7 +85,7 @@ HP_RANGES: dict[str, tuple[float | None, float | None, bool]] = {
     "learning_rate": (0.0, 1.0, False), "gamma": (0.0, 1.0, False), "gae_lambda": (0.0, 1.0, False),
     "clip_range": (0.0, 10.0, False), "clip_range_vf": (0.0, 10.0, False), "vf_coef": (0.0, 100.0, False),
     "max_grad_norm": (0.0, None, False), "target_kl": (0.0, None, False), "tau": (0.0, 1.0, False),
-    "target_policy_noise": (0.0, 10.0, False), "target_noise_clip": (0.0, 10.0, False), "noise_std": (0.0, 10.0, False),
+    "target_policy_noise": (0.0, 10.0, False), "target_noise_clip": (0.0, 10.0, False),
     "n_steps": (1, None, True), "batch_size": (1, None, True), "n_epochs": (1, None, True),
     "buffer_size": (1, None, True), "learning_starts": (0, None, True), "policy_delay": (1, None, True),
     "sde_sample_freq": (-1, None, True), "gradient_steps": (-1, None, True), "n_envs": (1, None, True),

@@ -209,6 +209,9 @@ def plan(config: TrainConfig) -> _Plan:
         v = getattr(c, name)
         if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
             raise TrainConfigError(f"{name} must be a whole number >= 1, got {v!r}")
+    if isinstance(c.seed, bool) or not isinstance(c.seed, int) or c.seed < 0:
+        # the env's reset() refuses a negative seed, inside the workers (a ConnectionResetError, not a message)
+        raise TrainConfigError(f"seed must be a whole number >= 0, got {c.seed!r}")
     for name in ("eval_freq", "checkpoint_freq"):
         if getattr(c, name) < 0:
             raise TrainConfigError(f"{name} must be >= 0 (0: never), got {getattr(c, name)!r}")

@@ -164,6 +164,7 @@ TINY_CLI = ["--observer", "oracle", "--n-envs", "2", "--eval-freq", "0", "--no-p
         (["--timesteps", "10", "--hyperparams", "vf_coef=nan"], "vf_coef must be a number"),
         (["--timesteps", "10", "--hyperparams", "clip_range=-0.1"], "clip_range must be a number > 0.0"),
         (["--timesteps", "10", "--algo", "sac", "--hyperparams", "train_freq=0"], "train_freq must be an integer"),
+        (["--timesteps", "10", "--seed", "-1"], "seed must be a whole number >= 0, got -1"),
     ],
 )
 def test_bad_training_input_is_one_line_and_creates_nothing(tmp_path, capsys, args, fragment):
@@ -259,6 +260,10 @@ def test_controller_options_reach_the_constructor():
         (dict(controllers=["rule-based@speed_margn=0.1"]), "speed_margn"),
         (dict(controllers=["rule-based@speed_margin"]), "not name=value"),
         (dict(controllers=["rule-based@speed_margin=big"]), "not a number"),
+        # session 59's probe: a negative margin drove, a negative seed failed inside the workers
+        (dict(controllers=["rule-based@speed_margin=-5"]), "speed_margin must be a finite number >= 0"),
+        (dict(controllers=["rule-based@brake_fraction=0"]), "brake_fraction must be in"),
+        (dict(seed_base=-1), "seed must be >= 0"),
     ],
 )
 def test_bad_evaluation_input_is_named_before_any_episode(tmp_path, config, fragment):

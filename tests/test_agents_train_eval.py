@@ -262,7 +262,8 @@ def test_controller_options_reach_the_constructor():
         (dict(controllers=["rule-based@speed_margin=big"]), "not a number"),
         # session 59's probe: a negative margin drove, a negative seed failed inside the workers
         (dict(controllers=["rule-based@speed_margin=-5"]), "speed_margin must be a finite number >= 0"),
-        (dict(controllers=["rule-based@brake_fraction=0"]), "brake_fraction must be in"),
+        (dict(controllers=["rule-based@brake_fraction=0"]), "brake_fraction must be a finite number in"),
+        (dict(controllers=["oracle@gain_per_s=nan"]), "gain_per_s must be a finite number"),
         (dict(seed_base=-1), "seed must be >= 0"),
     ],
 )

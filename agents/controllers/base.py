@@ -57,6 +57,17 @@ def _station_hold(
     return None
 
 
+def check_settings(fractions: dict[str, float], positive: dict[str, float], non_negative: dict[str, float]) -> None:
+    """Raise ``ValueError`` naming the first controller setting that is not a finite number in its range:
+    ``fractions`` in (0, 1], ``positive`` > 0, ``non_negative`` >= 0 (a margin of -5 or a gain of NaN had driven)."""
+    for group, ok, text in ((fractions, lambda x: 0.0 < x <= 1.0, "in (0, 1]"),
+                            (positive, lambda x: x > 0.0, "> 0"), (non_negative, lambda x: x >= 0.0, ">= 0")):
+        for name, value in group.items():
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                    or not ok(value):
+                raise ValueError(f"{name} must be a finite number {text}, got {value!r}")
+
+
 class SpeedController:
     """Base class: ``reset(env, info)`` at the start of an episode, ``act(obs, info) -> ndarray (1,)``."""
 

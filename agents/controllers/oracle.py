@@ -8,7 +8,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from agents.control_input import ControlInput, ControlInputError, info_value
-from agents.controllers.base import SpeedController, _creep_mps, _station_hold, force_to_command
+from agents.controllers.base import SpeedController, _creep_mps, _station_hold, check_settings, force_to_command
 from agents.speed_profile import MinTimeProfile, effective_slope_rad, min_time_profile
 from uuom_core.vehicle import G_MPS2, VehicleParams
 
@@ -44,6 +44,10 @@ class OracleController(SpeedController):
         gain_per_s: float = 3.0,
         integral_gain_per_s2: float = 0.5,
     ) -> None:
+        check_settings(dict(traction_fraction=traction_fraction, brake_fraction=brake_fraction),
+                       dict(dt_s=dt_s, accel_limit_mps2=accel_limit_mps2),
+                       dict(speed_margin=speed_margin, speed_margin_mps=speed_margin_mps, stop_offset_m=stop_offset_m,
+                            gain_per_s=gain_per_s, integral_gain_per_s2=integral_gain_per_s2))
         super().__init__(vehicle, dt_s)
         self.speed_margin = speed_margin
         self.speed_margin_mps = speed_margin_mps

@@ -6,7 +6,7 @@ import math
 from typing import Any, Mapping
 
 from agents.control_input import ControlInput
-from agents.controllers.base import SpeedController, _creep_mps, _station_hold, force_to_command
+from agents.controllers.base import SpeedController, _creep_mps, _station_hold, check_settings, force_to_command
 from agents.grade_check import GradeCrossCheck
 from agents.sliding_window import WindowMax
 from uuom_core.limits import brake_deceleration_mps2, speed_limit_mps
@@ -108,24 +108,18 @@ class RuleBasedController(SpeedController):
     ) -> None:
         # every setting a finite number in its range, named when not (`uuom-evaluate --controllers
         # rule-based@speed_margin=-5` had driven with a negative margin; session 59)
-        settings = dict(dt_s=dt_s, k_sigma=k_sigma, speed_margin=speed_margin, slope_margin_rad=slope_margin_rad,
-                        speed_margin_mps=speed_margin_mps, brake_fraction=brake_fraction,
-                        accel_limit_mps2=accel_limit_mps2, stop_offset_m=stop_offset_m, gain_per_s=gain_per_s,
-                        integral_gain_per_s2=integral_gain_per_s2, cross_check_margin_rad=cross_check_margin_rad,
-                        overspeed_gain_per_s=overspeed_gain_per_s, warmup_s=warmup_s, memory_s=memory_s,
-                        overspeed_deadband_mps=overspeed_deadband_mps, mass_std_floor_frac=mass_std_floor_frac,
-                        light_mass_kg=light_mass_kg, light_memory_mass_kg=light_memory_mass_kg,
-                        k_sigma_wide=k_sigma_wide)
-        for name, value in settings.items():
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-                    or value < 0:
-                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        check_settings(
+            dict(brake_fraction=brake_fraction),
+            dict(dt_s=dt_s, accel_limit_mps2=accel_limit_mps2),
+            dict(k_sigma=k_sigma, speed_margin=speed_margin, slope_margin_rad=slope_margin_rad,
+                 speed_margin_mps=speed_margin_mps, stop_offset_m=stop_offset_m, gain_per_s=gain_per_s,
+                 integral_gain_per_s2=integral_gain_per_s2, cross_check_margin_rad=cross_check_margin_rad,
+                 overspeed_gain_per_s=overspeed_gain_per_s, warmup_s=warmup_s, memory_s=memory_s,
+                 overspeed_deadband_mps=overspeed_deadband_mps, mass_std_floor_frac=mass_std_floor_frac,
+                 light_mass_kg=light_mass_kg, light_memory_mass_kg=light_memory_mass_kg, k_sigma_wide=k_sigma_wide))
         for name, value in (("speed_margin", speed_margin), ("light_speed_margin", light_speed_margin)):
             if value is not None and not (isinstance(value, (int, float)) and 0.0 <= value < 1.0):
                 raise ValueError(f"{name} must be in [0, 1), got {value!r}")
-        if not (0.0 < brake_fraction <= 1.0) or not dt_s > 0.0 or not accel_limit_mps2 > 0.0:
-            raise ValueError(f"brake_fraction must be in (0, 1], dt_s and accel_limit_mps2 > 0; got {brake_fraction!r}, "
-                             f"{dt_s!r}, {accel_limit_mps2!r}")
         if wide_std_frac is not None and not (wide_std_frac > 0.0 and k_sigma_wide >= 0.0):
             raise ValueError(f"wide_std_frac must be > 0 or None and k_sigma_wide >= 0, got {wide_std_frac!r}, "
                              f"{k_sigma_wide!r}")

@@ -23,6 +23,7 @@ import uuom_gym  # noqa: F401  (registers the env ids)
 from uuom_core.limits import max_descendable_grade_rad
 from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, PLAUSIBLE_RANGES, VehicleParams
 from uuom_gym.sim.track import random_track
+from uuom_gym.sim.train_body import solver_iterations_for
 
 from test_estimators_fuzz import _check_covariances, _check_estimate, clean_stream
 
@@ -147,3 +148,23 @@ def test_random_tracks_stay_within_what_the_brake_holds() -> None:
 def test_a_drive_that_cannot_haul_the_rated_train_is_refused() -> None:
     with pytest.raises(ValueError, match="cannot haul the rated train"):
         DEFAULT_VEHICLE.with_changes(max_traction_n=5_000.0)
+
+
+def test_the_solver_iterations_grow_with_a_load_heavy_against_the_sections() -> None:
+    v = DEFAULT_VEHICLE
+    body = v.empty_mass_kg - 4 * v.carrying_wheel_mass_kg - v.hook_mass_kg
+    lighter = min(v.drive_section_mass_share, 1.0 - v.drive_section_mass_share) * body
+    # the project's vehicle keeps the configured iterations up to the plant's largest load (1.5x rated)
+    assert solver_iterations_for(20, v.hook_mass_kg + 1.5 * v.rated_load_kg, lighter) == 20
+    assert solver_iterations_for(20, 34_800.0, 4_180.0) == 34  # the 16 t train with 34 t of session 59
+
+
+def test_random_tracks_are_never_steeper_than_the_vehicle_is_specified_for() -> None:
+    v = DEFAULT_VEHICLE.with_changes(max_grade_deg=8.0)
+    env = gym.make("UUOM-Track-v0", vehicle=v, observer="oracle", allow_infeasible=True)
+    try:
+        for seed in range(4):
+            env.reset(seed=seed)
+            assert np.degrees(np.abs(env.unwrapped.track.slope_rad)).max() <= 8.0 + 1e-9
+    finally:
+        env.close()

@@ -87,7 +87,9 @@ def draw_conditions(cfg: Mapping[str, Any], vehicle: VehicleParams, rng: np.rand
         track = random_track(
             rng,
             length_m=cfg["track_length_m"],
-            max_grade_deg=cfg["max_grade_deg"],
+            # never steeper than the vehicle is specified for: the observation scales the grade by it and the 'none'
+            # observer's worst case assumes it (a 12 deg vehicle had met 15 deg tracks; session 59)
+            max_grade_deg=min(cfg["max_grade_deg"], vehicle.max_grade_deg),
             vehicle=vehicle,
             load_kg=load,
             running_resistance=mu,

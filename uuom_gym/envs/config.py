@@ -126,7 +126,7 @@ CONFIG_DOCS: dict[str, str] = {
     "scenario": "None for a random track per reset, or 'section1' | 'section2' | 'roadtest' (paper's fixed runs).",
     "track_length_m": "(low, high) length of random tracks in metres (the spec's roadways allow 200-1500 m; the "
     "default is shorter so episodes last a few hundred to a few thousand policy steps).",
-    "max_grade_deg": "Steepest grade of random tracks (deg), in (0, 30].",
+    "max_grade_deg": "Steepest grade of random tracks (deg), in (0, 30]; never above the vehicle file's max_grade_deg.",
     "allow_infeasible": "If True, random tracks may hold grades the drawn load cannot climb (the stall case).",
     "feasibility_margin": "Feasible random tracks keep every up-grade below this fraction of the steepest grade the "
     "drawn load can climb (with the drawn mu and adhesion).",

@@ -38,6 +38,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--dropout", type=float, default=0.0, help="dropout probability per sample and channel")
     ap.add_argument("--spikes", type=float, default=0.0, help="spike probability per sample and channel")
     args = ap.parse_args(argv)
+    for name in ("seed", "track_seed"):  # numpy's own message named neither
+        if getattr(args, name) < 0:
+            ap.error(f"--{name.replace('_', '-')} must be >= 0, got {getattr(args, name)}")
     try:
         vehicle = VehicleParams.from_toml(args.vehicle) if args.vehicle else DEFAULT_VEHICLE
         load = args.load_kg

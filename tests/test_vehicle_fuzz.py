@@ -22,41 +22,13 @@ import estimators
 import uuom_gym  # noqa: F401  (registers the env ids)
 from uuom_core.limits import max_descendable_grade_rad
 from uuom_core.vehicle import DEFAULT_VEHICLE, G_MPS2, PLAUSIBLE_RANGES, VehicleParams
+from uuom_core.vehicle_variants import consistent_vehicle
 from uuom_gym.sim.track import random_track
 from uuom_gym.sim.train_body import solver_iterations_for
 
 from test_estimators_fuzz import _check_covariances, _check_estimate, clean_stream
 
 FUZZ = settings(derandomize=True, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
-
-
-def _repaired(kw: dict[str, float]) -> VehicleParams:
-    """``kw`` made consistent with the relations ``uuom_core.vehicle._validate`` checks, then validated."""
-    kw["adhesion_wet"] = min(kw["adhesion_wet"], kw["adhesion_dry"])
-    kw["max_speed_rated_mps"] = min(kw["max_speed_rated_mps"], kw["max_speed_empty_mps"])
-    kw["emergency_brake_n"] = max(kw["emergency_brake_n"], kw["service_brake_n"])
-    kw["drive_wheel_base_m"] = min(kw["drive_wheel_base_m"], kw["drive_section_length_m"])
-    kw["beam_wheel_base_m"] = min(kw["beam_wheel_base_m"], kw["beam_section_length_m"])
-    kw["chain_spacing_m"] = min(kw["chain_spacing_m"], kw["beam_section_length_m"])
-    sections = kw["drive_section_length_m"] + kw["coupler_gap_m"] + kw["beam_section_length_m"]
-    if kw["length_m"] < sections:
-        kw["length_m"] = min(sections, PLAUSIBLE_RANGES["length_m"][1])
-        if kw["length_m"] < sections:  # the sections do not fit the longest train: shorten them to their default
-            for k in ("drive_section_length_m", "coupler_gap_m", "beam_section_length_m"):
-                kw[k] = getattr(DEFAULT_VEHICLE, k)
-            kw["drive_wheel_base_m"] = min(kw["drive_wheel_base_m"], kw["drive_section_length_m"])
-            kw["beam_wheel_base_m"] = min(kw["beam_wheel_base_m"], kw["beam_section_length_m"])
-            kw["chain_spacing_m"] = min(kw["chain_spacing_m"], kw["beam_section_length_m"])
-    # the hook below 20 % and the wheels plus hook below half of the empty mass
-    kw["hook_mass_kg"] = max(PLAUSIBLE_RANGES["hook_mass_kg"][0], min(kw["hook_mass_kg"], 0.19 * kw["empty_mass_kg"]))
-    room = 0.49 * kw["empty_mass_kg"] - kw["hook_mass_kg"]
-    kw["carrying_wheel_mass_kg"] = max(PLAUSIBLE_RANGES["carrying_wheel_mass_kg"][0],
-                                       min(kw["carrying_wheel_mass_kg"], room / 4.0))
-    # the drive must haul the rated train on a level wet rail: else the running resistance comes down
-    haul = min(kw["max_traction_n"], kw["adhesion_wet"] * kw["clamp_force_n"])
-    rated_mass = kw["empty_mass_kg"] + kw["rated_load_kg"]
-    kw["running_resistance"] = min(kw["running_resistance"], 0.9 * haul / (G_MPS2 * rated_mass))
-    return VehicleParams(**kw)
 
 
 @st.composite
@@ -76,7 +48,7 @@ def vehicles(draw: st.DrawFn) -> VehicleParams:
             a = math.log(max(lo, 1e-3))
             x = min(max(math.exp(a + u * (math.log(hi) - a)), lo), hi)
         kw[name] = int(round(x)) if isinstance(default, int) else float(x)
-    return _repaired(kw)
+    return consistent_vehicle(kw)
 
 
 def test_the_repair_gives_valid_vehicles_at_every_corner() -> None:
@@ -84,7 +56,7 @@ def test_the_repair_gives_valid_vehicles_at_every_corner() -> None:
         kw = {k: float(r[pick]) for k, r in PLAUSIBLE_RANGES.items()}
         for k in ("inertia_wheel_count", "drive_unit_count"):
             kw[k] = int(kw[k])
-        assert isinstance(_repaired(kw), VehicleParams)
+        assert isinstance(consistent_vehicle(kw), VehicleParams)
 
 
 @settings(FUZZ, max_examples=8)
@@ -182,7 +154,7 @@ def test_the_oracle_arrives_with_a_vehicle_near_the_projects(seed: int) -> None:
         d = getattr(DEFAULT_VEHICLE, name)
         x = min(max(d * math.exp(rng.uniform(-math.log(1.5), math.log(1.5))), lo), hi) if d else d
         kw[name] = int(round(x)) if isinstance(d, int) else float(x)
-    v = _repaired(kw)
+    v = consistent_vehicle(kw)
     env = gym.make("UUOM-Track-v0", vehicle=v, observer="oracle")
     try:
         obs, info = env.reset(seed=seed)

@@ -1,0 +1,166 @@
+"""Do the controllers hold on a vehicle they were not built on? Every controller, hand-written or trained, driven
+unchanged on seeded *sister vehicles* (every field of the vehicle file drawn within ×/÷ a factor of the project's,
+:func:`uuom_core.vehicle_variants.sister_vehicles`) and, as the control, on the project's own vehicle.
+
+Why: the rule-based controller reads the vehicle file, the estimator too; a trained policy saw one vehicle in
+training and reads observations scaled by that vehicle's numbers. A table judged on the training vehicle says
+nothing about the next monorail of the same class.
+
+The env is given the vehicle (its ``vehicle`` config entry); a trained policy runs on its own training env otherwise
+(its ``config.json``), so the vehicle is the only shift. Each track is identified by ``(vehicle, seed)``: on another
+vehicle the same seed can draw another track (random tracks are capped by what that train can climb and brake), so
+the oracle runs on every vehicle and each trip time is divided by the oracle's on the same vehicle and seed.
+:func:`run_vehicle_shift` writes ``episodes.csv`` (column ``vehicle``: 0 is the project's vehicle), ``vehicles.json``
+(the draws, as env ``vehicle`` overrides) and ``summary.md`` (the project's vehicle, the sister vehicles pooled, and
+one line per vehicle).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from agents.evaluation import DEFAULT_SEED_BASE, Task, run_tasks, split_options, split_shield, trained_env_kwargs
+from agents.evaluation_table import markdown_ci_table, markdown_table, pool_rows, summarise, write_csv
+from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
+from uuom_core.vehicle_variants import sister_vehicles, vehicle_overrides
+
+__all__ = ["ShiftConfig", "run_vehicle_shift", "shift_tasks", "track_id"]
+
+TRACK_STRIDE = 1_000_000
+"""``track_id = vehicle * TRACK_STRIDE + seed``: one key per (vehicle, seed) for the tables' oracle reference."""
+
+
+@dataclass(frozen=True)
+class ShiftConfig:
+    """One vehicle-shift study.
+
+    Attributes
+    ----------
+    controllers : tuple of str
+        Controller specs as for ``uuom-evaluate`` (``oracle`` is added when missing: it is the reference).
+    observer : str
+        The observer every non-oracle controller drives with.
+    vehicles, spread, vehicle_seed : int, float, int
+        How many sister vehicles, within ×/÷ ``spread`` of the project's, drawn with ``vehicle_seed``.
+    episodes, seed_base : int
+        Tracks per vehicle: seeds ``seed_base ..`` (the held-out seeds by default).
+    pools : dict
+        Label -> controller labels shown as one row (training seeds; see :func:`agents.evaluation_table.pool_rows`).
+    workers : int
+    out : Path
+    command : str
+        The command line, for ``summary.md``.
+    """
+
+    controllers: tuple[str, ...]
+    observer: str = "dffrls-aekf"
+    vehicles: int = 10
+    spread: float = 1.25
+    vehicle_seed: int = 0
+    episodes: int = 20
+    seed_base: int = DEFAULT_SEED_BASE
+    pools: dict[str, list[str]] = field(default_factory=dict)
+    workers: int = 2
+    out: Path = Path("results/agents/vehicle_shift")
+    command: str = "(called from Python)"
+
+
+def track_id(vehicle: int, seed: int) -> int:
+    return vehicle * TRACK_STRIDE + seed
+
+
+def _vehicle_list(config: ShiftConfig) -> list[VehicleParams]:
+    """The project's vehicle first (index 0), then the sister vehicles."""
+    if config.episodes < 1 or config.episodes >= TRACK_STRIDE // 2:
+        raise ValueError(f"vehicle shift: episodes must be in [1, {TRACK_STRIDE // 2}), got {config.episodes!r}")
+    return [DEFAULT_VEHICLE] + sister_vehicles(config.vehicle_seed, config.vehicles, config.spread)
+
+
+def shift_tasks(config: ShiftConfig) -> list[tuple[int, Task]]:
+    """``(vehicle index, Task)`` for every controller x vehicle x track (the oracle on every vehicle)."""
+    controllers = list(dict.fromkeys(["oracle", *config.controllers]))
+    own_env: dict[str, dict[str, Any]] = {}
+    for c in controllers:
+        name = split_options(split_shield(c)[0])[0]
+        own_env[c] = trained_env_kwargs(Path(name)) if ("/" in name or Path(name).is_dir()) else {}
+    tasks = []
+    for k, v in enumerate(_vehicle_list(config)):
+        over = vehicle_overrides(v)
+        for c in controllers:
+            kw = {**own_env[c], **({"vehicle": over} if over else {})}
+            observer = "oracle" if split_shield(c)[0] == "oracle" else config.observer
+            for i in range(config.episodes):
+                tasks.append((k, Task(c, observer, config.seed_base + i, json.dumps(kw, sort_keys=True))))
+    return tasks
+
+
+def _fmt_vehicle(v: VehicleParams) -> str:
+    return (f"{v.empty_mass_kg / 1e3:.1f} t + {v.rated_load_kg / 1e3:.1f} t, {v.length_m:.1f} m, "
+            f"{v.max_traction_n / 1e3:.0f} kN, v_rated {v.max_speed_rated_mps:.2f} m/s, chains {v.chain_length_m:.1f} m")
+
+
+def _per_vehicle_lines(rows: list[dict[str, Any]], vehicles: list[VehicleParams], labels: list[str]) -> str:
+    head = "| vehicle | " + " | ".join(labels) + " |\n| --- |" + " --- |" * len(labels) + "\n"
+    lines = []
+    for k, v in enumerate(vehicles):
+        by_label = {s["controller"]: s for s in summarise([r for r in rows if r["vehicle"] == k])}
+        cells = []
+        for lab in labels:
+            s = by_label.get(lab)
+            if s is None:
+                cells.append("–")
+                continue
+            arrived = round(s["success_rate"] * s["episodes"])
+            iqm = s["trip_time_iqm"]
+            cells.append(f"{arrived}/{s['episodes']}, {s['overspeed_trips']} trips"
+                         + (f", {iqm:.3f}" if math.isfinite(iqm) and lab != "oracle" else ""))
+        name = "0: the project's" if k == 0 else f"{k}: {_fmt_vehicle(v)}"
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return head + "\n".join(lines) + "\n"
+
+
+def run_vehicle_shift(config: ShiftConfig, progress: bool = True) -> dict[str, list[dict[str, Any]]]:
+    """Run the study; write its files to ``config.out``; return the summaries ``{"project": ..., "sisters": ...}``."""
+    vehicles = _vehicle_list(config)
+    pairs = shift_tasks(config)
+    t0 = time.time()
+    raw = run_tasks([t for _, t in pairs], config.workers, progress=progress)
+    wall = time.time() - t0
+    rows = []
+    for (k, task), r in zip(pairs, raw):
+        r = {key: val for key, val in r.items() if key != "trace"}
+        r["vehicle"] = k
+        r["track_seed"] = task.seed
+        r["seed"] = track_id(k, task.seed)
+        rows.append(r)
+    out = Path(config.out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "episodes.csv", rows)
+    (out / "vehicles.json").write_text(json.dumps(
+        [{"index": k, "vehicle": vehicle_overrides(v)} for k, v in enumerate(vehicles)], indent=1) + "\n")
+    pooled = pool_rows(rows, config.pools) if config.pools else rows
+    project = summarise([r for r in pooled if r["vehicle"] == 0])
+    sisters = summarise([r for r in pooled if r["vehicle"] > 0])
+    labels = list(dict.fromkeys(r["controller"] for r in pooled))
+    md = (f"{len(vehicles) - 1} sister vehicles (every field log-uniform within ×/÷ {config.spread:g} of the project's, "
+          f"vehicle seed {config.vehicle_seed}) and the project's vehicle, {config.episodes} tracks each (seeds "
+          f"{config.seed_base}..{config.seed_base + config.episodes - 1}), observer `{config.observer}`; "
+          f"{len(rows)} episodes in {wall:.0f} s.\nCommand: `{config.command}`\n\n"
+          "Trip time / oracle: against the oracle controller on the same vehicle and track. Intervals as in "
+          "`uuom-evaluate` (rates: Wilson, or for pooled training seeds a bootstrap over seeds and tracks; IQM: "
+          "bootstrap).\n\n## The project's vehicle\n\n" + markdown_table(project) + "\n" + markdown_ci_table(project)
+          + "\n## The sister vehicles, pooled\n\n" + markdown_table(sisters) + "\n" + markdown_ci_table(sisters)
+          + "\n## Per vehicle (arrived, overspeed trips, trip time / oracle IQM)\n\n"
+          + _per_vehicle_lines(pooled, vehicles, labels)
+          + "\nThe vehicles' fields: `vehicles.json` (env `vehicle` overrides; index 0 is the project's).\n")
+    (out / "summary.md").write_text(md)
+    write_csv(out / "summary.csv", [{**r, "vehicles": "project"} for r in project]
+              + [{**r, "vehicles": "sisters"} for r in sisters])
+    if progress:
+        print(md)
+    return {"project": project, "sisters": sisters}

@@ -11,12 +11,13 @@ The env is given the vehicle (its ``vehicle`` config entry); a trained policy ru
 vehicle the same seed can draw another track (random tracks are capped by what that train can climb and brake), so
 the oracle runs on every vehicle and each trip time is divided by the oracle's on the same vehicle and seed.
 :func:`run_vehicle_shift` writes ``episodes.csv`` (column ``vehicle``: 0 is the project's vehicle), ``vehicles.json``
-(the draws, as env ``vehicle`` overrides) and ``summary.md`` (the project's vehicle, the sister vehicles pooled, and
-one line per vehicle).
+(the draws, as env ``vehicle`` overrides), ``summary.md`` (the project's vehicle, the sister vehicles pooled, and
+one line per vehicle) and ``vehicle_shift.png``; :func:`report_vehicle_shift` rebuilds the last two from the first.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
@@ -24,12 +25,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from agents.evaluation import DEFAULT_SEED_BASE, Task, run_tasks, split_options, split_shield, trained_env_kwargs
-from agents.evaluation_table import markdown_ci_table, markdown_table, pool_rows, summarise, write_csv
+from agents.evaluation_table import markdown_ci_table, markdown_table, pool_rows, read_episodes, summarise, write_csv
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 from uuom_core.vehicle_variants import sister_vehicles, vehicle_overrides
 
-__all__ = ["ShiftConfig", "run_vehicle_shift", "shift_tasks", "track_id"]
+__all__ = ["ShiftConfig", "plot_vehicle_shift", "report_vehicle_shift", "run_vehicle_shift", "shift_tasks", "track_id"]
 
 TRACK_STRIDE = 1_000_000
 """``track_id = vehicle * TRACK_STRIDE + seed``: one key per (vehicle, seed) for the tables' oracle reference."""
@@ -124,8 +127,48 @@ def _per_vehicle_lines(rows: list[dict[str, Any]], vehicles: list[VehicleParams]
     return head + "\n".join(lines) + "\n"
 
 
+def plot_vehicle_shift(rows: list[dict[str, Any]], n_vehicles: int, path: Path) -> None:
+    """Per vehicle (x; 0 the project's): each controller's trip time / oracle (IQM, top) and its cost rate and
+    overspeed trips (bottom; a trip marked by its count)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    labels = [c for c in dict.fromkeys(r["controller"] for r in rows) if c != "oracle"]
+    fig, (ax_t, ax_c) = plt.subplots(2, 1, figsize=(9, 6.4), sharex=True)
+    x = np.arange(n_vehicles)
+    for j, lab in enumerate(labels):
+        iqm, cost, trips = [], [], []
+        for k in range(n_vehicles):
+            s = [r for r in summarise([r for r in rows if r["vehicle"] == k]) if r["controller"] == lab]
+            iqm.append(s[0]["trip_time_iqm"] if s else np.nan)
+            cost.append(s[0]["cost_rate"] if s else np.nan)
+            trips.append(s[0]["overspeed_trips"] if s else 0)
+        off = (j - (len(labels) - 1) / 2) * 0.08
+        line = ax_t.plot(x + off, iqm, "o-", ms=4, lw=1, label=lab)[0]
+        ax_c.semilogy(x + off, np.maximum(cost, 1e-9), "o-", ms=4, lw=1, color=line.get_color())
+        for k, n in enumerate(trips):
+            if n:
+                ax_c.annotate(f"{n} trip{'s' if n > 1 else ''}", (k + off, max(cost[k], 1e-9)), fontsize=7,
+                              color=line.get_color(), xytext=(3, 4), textcoords="offset points")
+    ax_t.axvspan(-0.5, 0.5, color="0.9", zorder=0)
+    ax_c.axvspan(-0.5, 0.5, color="0.9", zorder=0)
+    ax_t.set_ylabel("trip time / oracle (IQM)")
+    ax_c.set_ylabel("cost rate per step (0 drawn at 1e-9)")
+    ax_c.set_xticks(x, ["project's"] + [str(k) for k in range(1, n_vehicles)])
+    ax_c.set_xlabel("vehicle (shaded: the one every controller was built and trained on)")
+    for ax in (ax_t, ax_c):
+        ax.grid(alpha=0.3)
+    ax_t.legend(fontsize=7, ncol=2)
+    fig.suptitle("The same controllers on sister vehicles", fontsize=11)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def run_vehicle_shift(config: ShiftConfig, progress: bool = True) -> dict[str, list[dict[str, Any]]]:
-    """Run the study; write its files to ``config.out``; return the summaries ``{"project": ..., "sisters": ...}``."""
+    """Run the study; write its files to ``config.out`` (:func:`report_vehicle_shift`); return its summaries."""
     vehicles = _vehicle_list(config)
     pairs = shift_tasks(config)
     t0 = time.time()
@@ -143,24 +186,47 @@ def run_vehicle_shift(config: ShiftConfig, progress: bool = True) -> dict[str, l
     write_csv(out / "episodes.csv", rows)
     (out / "vehicles.json").write_text(json.dumps(
         [{"index": k, "vehicle": vehicle_overrides(v)} for k, v in enumerate(vehicles)], indent=1) + "\n")
+    (out / "run.json").write_text(json.dumps({"wall_s": round(wall), "episodes": len(rows), "command": config.command}) + "\n")
+    return report_vehicle_shift(config, progress)
+
+
+def report_vehicle_shift(config: ShiftConfig, progress: bool = True) -> dict[str, list[dict[str, Any]]]:
+    """``summary.md``, ``summary.csv`` and ``vehicle_shift.png`` from the ``episodes.csv``, ``vehicles.json`` and
+    ``run.json`` in ``config.out`` (a finished run; no episode is run); return ``{"project": ..., "sisters": ...}``.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``config.out`` holds no finished run.
+    """
+    out = Path(config.out)
+    rows = read_episodes(out / "episodes.csv")
+    vehicles = [VehicleParams(**{**dataclasses.asdict(DEFAULT_VEHICLE), **v["vehicle"]})
+                for v in json.loads((out / "vehicles.json").read_text())]
+    run = json.loads((out / "run.json").read_text()) if (out / "run.json").is_file() else {}
     pooled = pool_rows(rows, config.pools) if config.pools else rows
     project = summarise([r for r in pooled if r["vehicle"] == 0])
     sisters = summarise([r for r in pooled if r["vehicle"] > 0])
     labels = list(dict.fromkeys(r["controller"] for r in pooled))
+    episodes = len({r["track_seed"] for r in rows})
+    seeds = sorted({r["track_seed"] for r in rows})
+    wall = f" in {run['wall_s']} s" if "wall_s" in run else ""
     md = (f"{len(vehicles) - 1} sister vehicles (every field log-uniform within ×/÷ {config.spread:g} of the project's, "
-          f"vehicle seed {config.vehicle_seed}) and the project's vehicle, {config.episodes} tracks each (seeds "
-          f"{config.seed_base}..{config.seed_base + config.episodes - 1}), observer `{config.observer}`; "
-          f"{len(rows)} episodes in {wall:.0f} s.\nCommand: `{config.command}`\n\n"
+          f"vehicle seed {config.vehicle_seed}) and the project's vehicle, {episodes} tracks each (seeds "
+          f"{seeds[0]}..{seeds[-1]}), observer `{config.observer}`; {len(rows)} episodes{wall}.\n"
+          f"Command: `{run.get('command', config.command)}`\n\n"
           "Trip time / oracle: against the oracle controller on the same vehicle and track. Intervals as in "
           "`uuom-evaluate` (rates: Wilson, or for pooled training seeds a bootstrap over seeds and tracks; IQM: "
           "bootstrap).\n\n## The project's vehicle\n\n" + markdown_table(project) + "\n" + markdown_ci_table(project)
           + "\n## The sister vehicles, pooled\n\n" + markdown_table(sisters) + "\n" + markdown_ci_table(sisters)
           + "\n## Per vehicle (arrived, overspeed trips, trip time / oracle IQM)\n\n"
           + _per_vehicle_lines(pooled, vehicles, labels)
-          + "\nThe vehicles' fields: `vehicles.json` (env `vehicle` overrides; index 0 is the project's).\n")
+          + "\nThe vehicles' fields: `vehicles.json` (env `vehicle` overrides; index 0 is the project's). "
+          "Figure: `vehicle_shift.png`.\n")
     (out / "summary.md").write_text(md)
     write_csv(out / "summary.csv", [{**r, "vehicles": "project"} for r in project]
               + [{**r, "vehicles": "sisters"} for r in sisters])
+    plot_vehicle_shift(pooled, len(vehicles), out / "vehicle_shift.png")
     if progress:
         print(md)
     return {"project": project, "sisters": sisters}

@@ -42,10 +42,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pool", type=_pool, action="append", default=[], metavar="LABEL=CTRL,CTRL,...")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("results/agents/vehicle_shift"))
+    ap.add_argument("--report-only", action="store_true",
+                    help="rebuild summary.md and the figure from the episodes.csv already in --out")
     args = ap.parse_args(argv)
 
     from agents.evaluation import EvalConfig, check_config
-    from agents.vehicle_shift import ShiftConfig, run_vehicle_shift, shift_tasks
+    from agents.vehicle_shift import ShiftConfig, report_vehicle_shift, run_vehicle_shift, shift_tasks
 
     try:  # the controllers and the observer checked as uuom-evaluate checks them, before anything runs
         check_config(EvalConfig(controllers=args.controllers, observers=[args.observer], episodes=args.episodes,
@@ -58,7 +60,13 @@ def main(argv: list[str] | None = None) -> int:
         shift_tasks(config)  # draws the vehicles: a bad --spread or --episodes is named here
     except ValueError as exc:
         ap.error(str(exc))
-    run_vehicle_shift(config)
+    if args.report_only:
+        try:
+            report_vehicle_shift(config)
+        except FileNotFoundError as exc:
+            ap.error(f"--report-only: no finished run in {args.out} ({exc.filename} missing)")
+    else:
+        run_vehicle_shift(config)
     return 0
 
 

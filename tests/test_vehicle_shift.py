@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from agents.evaluation import trained_env_kwargs
-from agents.vehicle_shift import ShiftConfig, run_vehicle_shift, shift_tasks, track_id
+from agents.vehicle_shift import ShiftConfig, report_vehicle_shift, run_vehicle_shift, shift_tasks, track_id
 
 ROOT = Path(__file__).resolve().parents[1]
 POLICY = ROOT / "results/rl/policies/ppo_bare_span_08_13_300k_s0"
@@ -45,6 +45,10 @@ def test_a_small_study_writes_its_tables(tmp_path: Path) -> None:
     assert [v["index"] for v in vehicles] == [0, 1] and vehicles[0]["vehicle"] == {} and vehicles[1]["vehicle"]
     header = (tmp_path / "episodes.csv").read_text().splitlines()[0].split(",")
     assert {"vehicle", "track_seed", "seed"} <= set(header)
+    assert (tmp_path / "vehicle_shift.png").stat().st_size > 0
+    # the report rebuilt from the files alone is the same (the command comes from run.json)
+    again = report_vehicle_shift(ShiftConfig(controllers=("rule-based",), vehicles=1, out=tmp_path), progress=False)
+    assert again == res and (tmp_path / "summary.md").read_text() == md
 
 
 @pytest.mark.parametrize("args, word", [
@@ -52,6 +56,7 @@ def test_a_small_study_writes_its_tables(tmp_path: Path) -> None:
     (["--controllers", "no-such-controller"], "no-such-controller"),
     (["--controllers", "rule-based", "--episodes", "0"], "episodes"),
     (["--controllers", "rule-based", "--pool", "x"], "LABEL=CTRL"),
+    (["--controllers", "rule-based", "--report-only"], "no finished run"),
 ])
 def test_bad_input_is_named(args: list[str], word: str, tmp_path: Path) -> None:
     p = subprocess.run([sys.executable, str(ROOT / "scripts/vehicle_shift.py"), *args, "--out", str(tmp_path)],

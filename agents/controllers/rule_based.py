@@ -44,6 +44,9 @@ class RuleBasedController(SpeedController):
         heavy trains near their reference, and ``dffrls-aekf`` reads them up to 13 % light; 2.5/s halves the mean
         mass error, and with ``k_sigma=1`` is faster than the default at a lower cost rate with an honest estimator.
         The default stays: with no estimator (the prior's σ) ``k_sigma=1`` lets 3 of 30 trains trip.
+        On other vehicles (docs/rl.md §53: ten vehicles within ×/÷ 1.5 of the project's) the 10/s brake lets the
+        estimate read rated-load trains up to 19.5 % light and trips 3 of 200 trains; 2.5/s alone trips none (cost
+        rate 1.2e-7 against 2.5e-3): use it for a vehicle file other than the project's.
     feedforward_cross_check : bool
         Use the model-free grade in the feed-forward when it disagrees with the estimate.
     warmup_s, memory_s : float

@@ -11,8 +11,8 @@ The env is given the vehicle (its ``vehicle`` config entry); a trained policy ru
 vehicle the same seed can draw another track (random tracks are capped by what that train can climb and brake), so
 the oracle runs on every vehicle and each trip time is divided by the oracle's on the same vehicle and seed.
 :func:`run_vehicle_shift` writes ``episodes.csv`` (column ``vehicle``: 0 is the project's vehicle), ``vehicles.json``
-(the draws, as env ``vehicle`` overrides), ``summary.md`` (the project's vehicle, the sister vehicles pooled, and
-one line per vehicle) and ``vehicle_shift.png``; :func:`report_vehicle_shift` rebuilds the last two from the first.
+(the draws, as env ``vehicle`` overrides), ``run.json`` (the configuration and command), ``summary.md`` (the project's vehicle, the sister vehicles pooled, and
+one line per vehicle) and ``vehicle_shift.png``; :func:`report_vehicle_shift` rebuilds the last two from the first three.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from agents.evaluation_table import markdown_ci_table, markdown_table, pool_rows
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 from uuom_core.vehicle_variants import sister_vehicles, vehicle_overrides
 
-__all__ = ["ShiftConfig", "plot_vehicle_shift", "report_vehicle_shift", "run_vehicle_shift", "shift_tasks", "track_id"]
+__all__ = ["ShiftConfig", "load_config", "plot_vehicle_shift", "report_vehicle_shift", "run_vehicle_shift", "shift_tasks", "track_id"]
 
 TRACK_STRIDE = 1_000_000
 """``track_id = vehicle * TRACK_STRIDE + seed``: one key per (vehicle, seed) for the tables' oracle reference."""
@@ -186,24 +186,48 @@ def run_vehicle_shift(config: ShiftConfig, progress: bool = True) -> dict[str, l
     write_csv(out / "episodes.csv", rows)
     (out / "vehicles.json").write_text(json.dumps(
         [{"index": k, "vehicle": vehicle_overrides(v)} for k, v in enumerate(vehicles)], indent=1) + "\n")
-    (out / "run.json").write_text(json.dumps({"wall_s": round(wall), "episodes": len(rows), "command": config.command}) + "\n")
-    return report_vehicle_shift(config, progress)
+    (out / "run.json").write_text(json.dumps({"wall_s": round(wall), "episodes": len(rows), "command": config.command,
+                                              "config": _config_json(config)}, indent=1) + "\n")
+    return report_vehicle_shift(out, progress)
 
 
-def report_vehicle_shift(config: ShiftConfig, progress: bool = True) -> dict[str, list[dict[str, Any]]]:
-    """``summary.md``, ``summary.csv`` and ``vehicle_shift.png`` from the ``episodes.csv``, ``vehicles.json`` and
-    ``run.json`` in ``config.out`` (a finished run; no episode is run); return ``{"project": ..., "sisters": ...}``.
+def _config_json(config: ShiftConfig) -> dict[str, Any]:
+    return {"controllers": list(config.controllers), "observer": config.observer, "vehicles": config.vehicles,
+            "spread": config.spread, "vehicle_seed": config.vehicle_seed, "episodes": config.episodes,
+            "seed_base": config.seed_base, "pools": config.pools}
+
+
+def load_config(out: Path) -> ShiftConfig:
+    """The configuration of the finished run in ``out`` (its ``run.json``).
 
     Raises
     ------
     FileNotFoundError
-        ``config.out`` holds no finished run.
+        ``out`` holds no ``run.json``.
     """
+    run = json.loads((Path(out) / "run.json").read_text())
+    c = run["config"]
+    return ShiftConfig(controllers=tuple(c["controllers"]), observer=c["observer"], vehicles=c["vehicles"],
+                       spread=c["spread"], vehicle_seed=c["vehicle_seed"], episodes=c["episodes"],
+                       seed_base=c["seed_base"], pools={k: list(v) for k, v in c["pools"].items()}, out=Path(out),
+                       command=run.get("command", "(called from Python)"))
+
+
+def report_vehicle_shift(out: Path, progress: bool = True) -> dict[str, list[dict[str, Any]]]:
+    """``summary.md``, ``summary_vehicles.csv`` and ``vehicle_shift.png`` from the ``episodes.csv``, ``vehicles.json``
+    and ``run.json`` of the finished run in ``out`` (no episode is run); return ``{"project": ..., "sisters": ...}``.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``out`` holds no finished run.
+    """
+    config = load_config(out)
     out = Path(config.out)
     rows = read_episodes(out / "episodes.csv")
     vehicles = [VehicleParams(**{**dataclasses.asdict(DEFAULT_VEHICLE), **v["vehicle"]})
                 for v in json.loads((out / "vehicles.json").read_text())]
-    run = json.loads((out / "run.json").read_text()) if (out / "run.json").is_file() else {}
+    run = json.loads((out / "run.json").read_text())
     pooled = pool_rows(rows, config.pools) if config.pools else rows
     project = summarise([r for r in pooled if r["vehicle"] == 0])
     sisters = summarise([r for r in pooled if r["vehicle"] > 0])
@@ -214,7 +238,7 @@ def report_vehicle_shift(config: ShiftConfig, progress: bool = True) -> dict[str
     md = (f"{len(vehicles) - 1} sister vehicles (every field log-uniform within ×/÷ {config.spread:g} of the project's, "
           f"vehicle seed {config.vehicle_seed}) and the project's vehicle, {episodes} tracks each (seeds "
           f"{seeds[0]}..{seeds[-1]}), observer `{config.observer}`; {len(rows)} episodes{wall}.\n"
-          f"Command: `{run.get('command', config.command)}`\n\n"
+          f"Command: `{config.command}`\n\n"
           "Trip time / oracle: against the oracle controller on the same vehicle and track. Intervals as in "
           "`uuom-evaluate` (rates: Wilson, or for pooled training seeds a bootstrap over seeds and tracks; IQM: "
           "bootstrap).\n\n## The project's vehicle\n\n" + markdown_table(project) + "\n" + markdown_ci_table(project)
@@ -224,7 +248,7 @@ def report_vehicle_shift(config: ShiftConfig, progress: bool = True) -> dict[str
           + "\nThe vehicles' fields: `vehicles.json` (env `vehicle` overrides; index 0 is the project's). "
           "Figure: `vehicle_shift.png`.\n")
     (out / "summary.md").write_text(md)
-    write_csv(out / "summary.csv", [{**r, "vehicles": "project"} for r in project]
+    write_csv(out / "summary_vehicles.csv", [{**r, "vehicles": "project"} for r in project]
               + [{**r, "vehicles": "sisters"} for r in sisters])
     plot_vehicle_shift(pooled, len(vehicles), out / "vehicle_shift.png")
     if progress:

@@ -32,7 +32,8 @@ def _pool(text: str) -> tuple[str, list[str]]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--controllers", nargs="+", required=True, help="as for uuom-evaluate (the oracle is added)")
+    ap.add_argument("--controllers", nargs="+", help="as for uuom-evaluate (the oracle is added); required unless "
+                    "--report-only")
     ap.add_argument("--observer", default="dffrls-aekf")
     ap.add_argument("--vehicles", type=int, default=10, help="sister vehicles (the project's vehicle is added)")
     ap.add_argument("--spread", type=float, default=1.25, help="each field within x/÷ this factor of the project's")
@@ -43,12 +44,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("results/agents/vehicle_shift"))
     ap.add_argument("--report-only", action="store_true",
-                    help="rebuild summary.md and the figure from the episodes.csv already in --out")
+                    help="rebuild summary.md and the figure from the finished run in --out (its episodes.csv, "
+                    "vehicles.json and run.json); no other option is read")
     args = ap.parse_args(argv)
 
     from agents.evaluation import EvalConfig, check_config
     from agents.vehicle_shift import ShiftConfig, report_vehicle_shift, run_vehicle_shift, shift_tasks
 
+    if args.report_only:
+        try:
+            report_vehicle_shift(args.out)
+        except FileNotFoundError as exc:
+            ap.error(f"--report-only: no finished run in {args.out} ({Path(exc.filename).name} missing)")
+        return 0
+    if not args.controllers:
+        ap.error("--controllers is required (unless --report-only)")
     try:  # the controllers and the observer checked as uuom-evaluate checks them, before anything runs
         check_config(EvalConfig(controllers=args.controllers, observers=[args.observer], episodes=args.episodes,
                                 seed_base=args.seed_base, workers=args.workers, out=args.out, allow_env_shift=True))
@@ -60,13 +70,7 @@ def main(argv: list[str] | None = None) -> int:
         shift_tasks(config)  # draws the vehicles: a bad --spread or --episodes is named here
     except ValueError as exc:
         ap.error(str(exc))
-    if args.report_only:
-        try:
-            report_vehicle_shift(config)
-        except FileNotFoundError as exc:
-            ap.error(f"--report-only: no finished run in {args.out} ({exc.filename} missing)")
-    else:
-        run_vehicle_shift(config)
+    run_vehicle_shift(config)
     return 0
 
 

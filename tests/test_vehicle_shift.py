@@ -4,6 +4,7 @@ tables it writes, and its bad input."""
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -11,7 +12,10 @@ from pathlib import Path
 import pytest
 
 from agents.evaluation import trained_env_kwargs
-from agents.vehicle_shift import ShiftConfig, report_vehicle_shift, run_vehicle_shift, shift_tasks, track_id
+from agents.evaluation import Task, read_episodes, run_episode
+from agents.float_path import float_path_fingerprint
+from agents.vehicle_shift import (ShiftConfig, load_config, report_vehicle_shift, run_vehicle_shift, shift_tasks,
+                                  track_id)
 
 ROOT = Path(__file__).resolve().parents[1]
 POLICY = ROOT / "results/rl/policies/ppo_bare_span_08_13_300k_s0"
@@ -46,9 +50,10 @@ def test_a_small_study_writes_its_tables(tmp_path: Path) -> None:
     header = (tmp_path / "episodes.csv").read_text().splitlines()[0].split(",")
     assert {"vehicle", "track_seed", "seed"} <= set(header)
     assert (tmp_path / "vehicle_shift.png").stat().st_size > 0
-    # the report rebuilt from the files alone is the same (the command comes from run.json)
-    again = report_vehicle_shift(ShiftConfig(controllers=("rule-based",), vehicles=1, out=tmp_path), progress=False)
-    assert again == res and (tmp_path / "summary.md").read_text() == md
+    # the report rebuilt from the files alone is the same (the configuration and command come from run.json)
+    assert load_config(tmp_path).controllers == ("rule-based",)
+    report_vehicle_shift(tmp_path, progress=False)
+    assert (tmp_path / "summary.md").read_text() == md
 
 
 @pytest.mark.parametrize("args, word", [
@@ -56,10 +61,72 @@ def test_a_small_study_writes_its_tables(tmp_path: Path) -> None:
     (["--controllers", "no-such-controller"], "no-such-controller"),
     (["--controllers", "rule-based", "--episodes", "0"], "episodes"),
     (["--controllers", "rule-based", "--pool", "x"], "LABEL=CTRL"),
-    (["--controllers", "rule-based", "--report-only"], "no finished run"),
+    (["--report-only"], "no finished run"),
+    ([], "--controllers is required"),
 ])
 def test_bad_input_is_named(args: list[str], word: str, tmp_path: Path) -> None:
     p = subprocess.run([sys.executable, str(ROOT / "scripts/vehicle_shift.py"), *args, "--out", str(tmp_path)],
                        capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert p.returncode == 2 and word in p.stderr, p.stderr
     assert not (tmp_path / "episodes.csv").exists()
+
+
+STUDIES = sorted(p.parent for p in (ROOT / "results" / "agents").glob("vehicle_shift*/run.json"))
+
+
+def test_the_committed_studies_are_there() -> None:
+    assert {p.name for p in STUDIES} >= {"vehicle_shift", "vehicle_shift_15", "vehicle_shift_15_gentle_brake"}
+
+
+@pytest.mark.parametrize("study", STUDIES, ids=[p.name for p in STUDIES])
+def test_committed_tables_are_their_episodes_reported_by_this_tree(study: Path, tmp_path: Path) -> None:
+    for name in ("episodes.csv", "vehicles.json", "run.json"):
+        shutil.copy(study / name, tmp_path / name)
+    report_vehicle_shift(tmp_path, progress=False)
+    for name in ("summary.md", "summary_vehicles.csv"):
+        assert (tmp_path / name).read_text() == (study / name).read_text(), f"{study.name}/{name} is stale"
+
+
+def _committed_episode(study: str, controller: str, vehicle: int, seed: int) -> dict:
+    rows = [r for r in read_episodes(ROOT / "results/agents" / study / "episodes.csv")
+            if r["controller"] == controller and r["vehicle"] == vehicle and r["track_seed"] == seed]
+    assert len(rows) == 1
+    return rows[0]
+
+
+def _rerun(study: str, spec: str, vehicle: int, seed: int) -> dict:
+    cfg = load_config(ROOT / "results/agents" / study)
+    cfg = ShiftConfig(**{**cfg.__dict__, "controllers": (spec,)})
+    task = [t for k, t in shift_tasks(cfg) if k == vehicle and t.controller == spec and t.seed == seed][0]
+    return run_episode(Task(task.controller, task.observer, task.seed, task.env_kwargs_json))
+
+
+def _same(got: dict, want: dict) -> None:
+    assert str(got["termination"]) == want["termination"]
+    assert got["trip_time_s"] == pytest.approx(want["trip_time_s"], abs=1e-6)
+    assert got["cost"] == pytest.approx(want["cost"], rel=1e-6, abs=1e-9)
+
+
+def test_the_default_brake_trips_a_rated_load_train_of_a_sister_vehicle_and_the_gentle_one_does_not() -> None:
+    """docs/rl.md §53: vehicle 9 of the x/÷1.5 study, a 98 % load on held-out track 100008."""
+    want = _committed_episode("vehicle_shift_15", "rule-based", 9, 100008)
+    got = _rerun("vehicle_shift_15", "rule-based", 9, 100008)
+    assert want["termination"] == "overspeed_trip"
+    _same(got, want)
+    want = _committed_episode("vehicle_shift_15_gentle_brake", "rule-based@overspeed_gain_per_s=2.5", 9, 100008)
+    got = _rerun("vehicle_shift_15_gentle_brake", "rule-based@overspeed_gain_per_s=2.5", 9, 100008)
+    assert want["termination"] == "arrived" and not want["overspeed_trip"]
+    _same(got, want)
+
+
+@pytest.mark.parametrize("policy, ending", [("ppo_bare_span_08_13_300k_s0", "arrived"),
+                                            ("ppo_bc_ceiling_traction_s0", "overspeed_trip")])
+def test_a_shipped_policy_on_a_sister_vehicle(policy: str, ending: str) -> None:
+    """Vehicle 6 of the x/÷1.5 study (14.1 t carrying 29.9 t), track 100002: the speed-target policy arrives, the
+    traction policy trips. A policy's episode is reproducible only on the float32 path that wrote it."""
+    want = _committed_episode("vehicle_shift_15", policy, 6, 100002)
+    assert want["termination"] == ending
+    if want.get("float_path") != float_path_fingerprint():
+        pytest.skip(f"the committed row was written with float32 path {want.get('float_path')}, this machine has "
+                    f"{float_path_fingerprint()}")
+    _same(_rerun("vehicle_shift_15", str(ROOT / "results/rl/policies" / policy), 6, 100002), want)

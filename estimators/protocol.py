@@ -38,6 +38,7 @@ from typing import Any, Callable, Iterable, Sequence
 import numpy as np
 
 from uuom_core.trace import Trace
+from uuom_core.vehicle import VehicleParams
 
 from .metrics import consistency, error_after_settling, nis_consistency, settling_time_s, train_slope_deg
 from .registry import available, get_class, make
@@ -135,9 +136,10 @@ def _consistency(prefix: str, t, est, std, truth, settle_s) -> dict[str, Any]:
     return {f"{prefix}_nees": c.nees, f"{prefix}_nees_in_band": c.in_band, f"{prefix}_within_2sigma": c.within_2sigma}
 
 
-def score_trace(trace: Trace, name: str, settle_s: float = 10.0) -> dict[str, Any]:
-    """Run estimator ``name`` (default options, no tuning) over ``trace`` and score it (one protocol row)."""
-    est = make(name)
+def score_trace(trace: Trace, name: str, settle_s: float = 10.0, vehicle: VehicleParams | None = None) -> dict[str, Any]:
+    """Run estimator ``name`` (default options, no tuning; given ``vehicle``'s file, the project's by default) over
+    ``trace`` and score it (one protocol row)."""
+    est = make(name) if vehicle is None else make(name, vehicle=vehicle)
     t0 = time.perf_counter()
     s = est.run(trace)
     seconds = time.perf_counter() - t0

@@ -28,7 +28,7 @@ import numpy as np
 
 from uuom_core.limits import load_speed_limit_mps, max_climbable_grade_rad
 from uuom_core.trace import Trace
-from uuom_core.vehicle import DEFAULT_VEHICLE
+from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
 
 __all__ = ["FAULT_KINDS", "RunSpec", "make_run", "protocol_runs", "runs_fingerprint", "true_running_resistance"]
 
@@ -143,17 +143,26 @@ def _rng(spec: RunSpec) -> np.random.Generator:
     return np.random.default_rng([PROTOCOL_SEED, _GROUP_INDEX[spec.group], spec.index])
 
 
-def make_run(spec: RunSpec) -> Trace:
-    """The trace of one run (with truth columns and ``effective_slope_deg``); deterministic."""
+def make_run(spec: RunSpec, vehicle: VehicleParams | None = None) -> Trace:
+    """The trace of one run (with truth columns and ``effective_slope_deg``); deterministic.
+
+    ``vehicle``: another vehicle than the project's for a random run (its load drawn up to that vehicle's rated load,
+    its track capped by what that train can climb and brake, its load's chains scaled by the vehicle's); the same
+    draws otherwise, so run *i* on two vehicles differs by the vehicle. The fixed scenarios take the project's vehicle
+    only.
+    """
+    if vehicle is not None and vehicle != DEFAULT_VEHICLE and spec.scenario != "random":
+        raise ValueError(f"make_run: a vehicle other than the project's is for random runs, not {spec.scenario!r}")
+    veh = DEFAULT_VEHICLE if vehicle is None else vehicle
     if spec.world == "plant":
         if spec.scenario == "random":
-            tr = _random_plant(spec)
+            tr = _random_plant(spec, veh)
         elif spec.scenario.startswith("station-"):
             tr = _station(spec)
         else:
             tr = _plant_scenario(spec)
     elif spec.world == "point":
-        tr = _random_point(spec) if spec.scenario == "random" else _point_scenario(spec)
+        tr = _random_point(spec, veh) if spec.scenario == "random" else _point_scenario(spec)
     else:
         raise ValueError(f"unknown world {spec.world!r}; known: plant, point")
     tr.meta.update(run=spec.name, group=spec.group, world=spec.world, fault=spec.fault)
@@ -202,24 +211,24 @@ def _station(spec: RunSpec) -> Trace:
     return station_trace(*loads, seed=spec.seed)
 
 
-def _random_plant(spec: RunSpec) -> Trace:
+def _random_plant(spec: RunSpec, veh: VehicleParams = DEFAULT_VEHICLE) -> Trace:
     from uuom_gym.sim.plant import PlantConfig
     from uuom_gym.sim.recording import simulate_run
     from uuom_gym.sim.scenarios import Scenario, SpeedProfile
     from uuom_gym.sim.sensors import FaultConfig, SensorConfig
     from uuom_gym.sim.track import random_track
 
-    veh = DEFAULT_VEHICLE
     rng = _rng(spec)
     load = float(rng.uniform(0.0, veh.rated_load_kg))
     mu = float(rng.uniform(0.015, 0.03))
     wet = bool(rng.random() < 0.3)
     adhesion = veh.adhesion_wet if wet else veh.adhesion_dry
     pc = PlantConfig(load_kg=load, running_resistance=mu, adhesion=adhesion,
-                     wheel_wear_m=float(rng.uniform(0.0, 0.004)), chain_length_m=float(rng.uniform(1.5, 3.0)),
+                     wheel_wear_m=float(rng.uniform(0.0, 0.004)),
+                     chain_length_m=float(rng.uniform(1.5, 3.0)) * (veh.chain_length_m / DEFAULT_VEHICLE.chain_length_m),
                      anti_sway_damping_ratio=float(rng.uniform(0.03, 0.1)))
-    track = random_track(rng, length_m=(300.0, 800.0), load_kg=load, running_resistance=mu, adhesion=adhesion,
-                         name=spec.name)
+    track = random_track(rng, length_m=(300.0, 800.0), max_grade_deg=min(15.0, veh.max_grade_deg), vehicle=veh,
+                         load_kg=load, running_resistance=mu, adhesion=adhesion, name=spec.name)
     v_lim = load_speed_limit_mps(veh, veh.empty_mass_kg + load)
     # start from standstill on a near-level stretch (a stop) a few metres before a grade begins, so the 60 s
     # hold a grade change; anywhere from which the run cannot reach the track's end
@@ -238,7 +247,7 @@ def _random_plant(spec: RunSpec) -> Trace:
     sensors = SensorConfig.randomized(rng, 0.5, 2.0)
     faults = FaultConfig(dropout_prob=float(rng.uniform(0.002, 0.02))) if rng.random() < 0.25 else None
     scen = Scenario(spec.name, track, load, profile, spec.duration_s, start)
-    tr = simulate_run(scen, seed=spec.seed, plant_config=pc, sensor_config=sensors, fault_config=faults)
+    tr = simulate_run(scen, seed=spec.seed, vehicle=veh, plant_config=pc, sensor_config=sensors, fault_config=faults)
     tr.meta.update(mu=f"{mu:.4f}", wet=str(wet), wear_mm=f"{1000 * pc.wheel_wear_m:.2f}",
                    dropouts=f"{faults.dropout_prob:.4f}" if faults else "0", chain_m=f"{pc.chain_length_m:.3f}",
                    sway_damping=f"{pc.anti_sway_damping_ratio:.3f}")
@@ -268,11 +277,10 @@ def _with_effective_slope(tr: Trace) -> Trace:
     return tr
 
 
-def _random_point(spec: RunSpec) -> Trace:
+def _random_point(spec: RunSpec, veh: VehicleParams = DEFAULT_VEHICLE) -> Trace:
     from uuom_gym.sim.point_mass import (GradeProfile, PointMassFaults, PointMassScenario, PointMassSensors,
                                          SpeedPlan, simulate_point_mass)
 
-    veh = DEFAULT_VEHICLE
     rng = _rng(spec)
     load = float(rng.uniform(0.0, veh.rated_load_kg))
     mu = float(rng.uniform(0.015, 0.03))
@@ -307,9 +315,10 @@ def _random_point(spec: RunSpec) -> Trace:
     faults = PointMassFaults(dropout_prob=float(rng.uniform(0.002, 0.02))) if rng.random() < 0.25 else \
         PointMassFaults()
     sc = PointMassScenario(spec.name, grade_profile, plan, load, duration_s=spec.duration_s, running_resistance=mu,
-                           chain_length_m=float(rng.uniform(1.5, 3.5)),
+                           chain_length_m=float(rng.uniform(1.5, 3.5)) * (veh.chain_length_m
+                                                                          / DEFAULT_VEHICLE.chain_length_m),
                            sway_damping_ratio=float(rng.uniform(0.03, 0.15)), sensors=sensors, faults=faults)
-    tr = _with_effective_slope(simulate_point_mass(sc, seed=spec.seed))
+    tr = _with_effective_slope(simulate_point_mass(sc, seed=spec.seed, vehicle=veh))
     tr.meta.update(mu=f"{mu:.4f}", dropouts=f"{faults.dropout_prob:.4f}", stop_and_go=str(plan.by == "time"),
                    chain_m=f"{sc.chain_length_m:.3f}", sway_damping=f"{sc.sway_damping_ratio:.3f}")
     return tr

@@ -52,6 +52,9 @@ class ShiftConfig:
         How many sister vehicles, within ×/÷ ``spread`` of the project's, drawn with ``vehicle_seed``.
     episodes, seed_base : int
         Tracks per vehicle: seeds ``seed_base ..`` (the held-out seeds by default).
+    vehicle_files : tuple of str
+        TOML vehicle files to drive on instead of drawn sister vehicles (``vehicles``, ``spread`` and
+        ``vehicle_seed`` are then not used): does a controller hold on *this* vehicle?
     pools : dict
         Label -> controller labels shown as one row (training seeds; see :func:`agents.evaluation_table.pool_rows`).
     workers : int
@@ -67,6 +70,7 @@ class ShiftConfig:
     vehicle_seed: int = 0
     episodes: int = 20
     seed_base: int = DEFAULT_SEED_BASE
+    vehicle_files: tuple[str, ...] = ()
     pools: dict[str, list[str]] = field(default_factory=dict)
     workers: int = 2
     out: Path = Path("results/agents/vehicle_shift")
@@ -81,6 +85,8 @@ def _vehicle_list(config: ShiftConfig) -> list[VehicleParams]:
     """The project's vehicle first (index 0), then the sister vehicles."""
     if config.episodes < 1 or config.episodes >= TRACK_STRIDE // 2:
         raise ValueError(f"vehicle shift: episodes must be in [1, {TRACK_STRIDE // 2}), got {config.episodes!r}")
+    if config.vehicle_files:
+        return [DEFAULT_VEHICLE] + [VehicleParams.from_toml(f) for f in config.vehicle_files]
     return [DEFAULT_VEHICLE] + sister_vehicles(config.vehicle_seed, config.vehicles, config.spread)
 
 
@@ -194,7 +200,7 @@ def run_vehicle_shift(config: ShiftConfig, progress: bool = True) -> dict[str, l
 def _config_json(config: ShiftConfig) -> dict[str, Any]:
     return {"controllers": list(config.controllers), "observer": config.observer, "vehicles": config.vehicles,
             "spread": config.spread, "vehicle_seed": config.vehicle_seed, "episodes": config.episodes,
-            "seed_base": config.seed_base, "pools": config.pools}
+            "seed_base": config.seed_base, "vehicle_files": list(config.vehicle_files), "pools": config.pools}
 
 
 def load_config(out: Path) -> ShiftConfig:
@@ -209,7 +215,8 @@ def load_config(out: Path) -> ShiftConfig:
     c = run["config"]
     return ShiftConfig(controllers=tuple(c["controllers"]), observer=c["observer"], vehicles=c["vehicles"],
                        spread=c["spread"], vehicle_seed=c["vehicle_seed"], episodes=c["episodes"],
-                       seed_base=c["seed_base"], pools={k: list(v) for k, v in c["pools"].items()}, out=Path(out),
+                       seed_base=c["seed_base"], vehicle_files=tuple(c.get("vehicle_files", ())),
+                       pools={k: list(v) for k, v in c["pools"].items()}, out=Path(out),
                        command=run.get("command", "(called from Python)"))
 
 
@@ -235,8 +242,10 @@ def report_vehicle_shift(out: Path, progress: bool = True) -> dict[str, list[dic
     episodes = len({r["track_seed"] for r in rows})
     seeds = sorted({r["track_seed"] for r in rows})
     wall = f" in {run['wall_s']} s" if "wall_s" in run else ""
-    md = (f"{len(vehicles) - 1} sister vehicles (every field log-uniform within ×/÷ {config.spread:g} of the project's, "
-          f"vehicle seed {config.vehicle_seed}) and the project's vehicle, {episodes} tracks each (seeds "
+    drawn = (f"the vehicle files {', '.join(f'`{f}`' for f in config.vehicle_files)}" if config.vehicle_files else
+             f"{len(vehicles) - 1} sister vehicles (every field log-uniform within ×/÷ {config.spread:g} of the "
+             f"project's, vehicle seed {config.vehicle_seed})")
+    md = (f"{drawn} and the project's vehicle, {episodes} tracks each (seeds "
           f"{seeds[0]}..{seeds[-1]}), observer `{config.observer}`; {len(rows)} episodes{wall}.\n"
           f"Command: `{config.command}`\n\n"
           "Trip time / oracle: against the oracle controller on the same vehicle and track. Intervals as in "

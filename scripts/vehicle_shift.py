@@ -38,6 +38,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--vehicles", type=int, default=10, help="sister vehicles (the project's vehicle is added)")
     ap.add_argument("--spread", type=float, default=1.25, help="each field within x/÷ this factor of the project's")
     ap.add_argument("--vehicle-seed", type=int, default=0)
+    ap.add_argument("--vehicle-files", nargs="+", default=[], metavar="TOML",
+                    help="drive on these vehicle files instead of drawn sister vehicles")
     ap.add_argument("--episodes", type=int, default=20, help="tracks per vehicle")
     ap.add_argument("--seed-base", type=int, default=DEFAULT_SEED_BASE)
     ap.add_argument("--pool", type=_pool, action="append", default=[], metavar="LABEL=CTRL,CTRL,...")
@@ -64,7 +66,8 @@ def main(argv: list[str] | None = None) -> int:
                                 seed_base=args.seed_base, workers=args.workers, out=args.out, allow_env_shift=True))
         config = ShiftConfig(controllers=tuple(args.controllers), observer=args.observer, vehicles=args.vehicles,
                              spread=args.spread, vehicle_seed=args.vehicle_seed, episodes=args.episodes,
-                             seed_base=args.seed_base, pools=dict(args.pool), workers=args.workers, out=args.out,
+                             seed_base=args.seed_base, vehicle_files=tuple(args.vehicle_files), pools=dict(args.pool),
+                             workers=args.workers, out=args.out,
                              command="python scripts/vehicle_shift.py " + shlex.join(sys.argv[1:] if argv is None
                                                                                        else argv))
         shift_tasks(config)  # draws the vehicles: a bad --spread or --episodes is named here

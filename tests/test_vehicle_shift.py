@@ -130,3 +130,20 @@ def test_a_shipped_policy_on_a_sister_vehicle(policy: str, ending: str) -> None:
         pytest.skip(f"the committed row was written with float32 path {want.get('float_path')}, this machine has "
                     f"{float_path_fingerprint()}")
     _same(_rerun("vehicle_shift_15", str(ROOT / "results/rl/policies" / policy), 6, 100002), want)
+
+
+def test_a_study_on_a_vehicle_file(tmp_path: Path) -> None:
+    f = tmp_path / "mine.toml"
+    f.write_text("[vehicle]\nempty_mass_kg = 18000\nrated_load_kg = 22000\n")
+    cfg = ShiftConfig(controllers=("rule-based",), vehicle_files=(str(f),), episodes=1, workers=1, out=tmp_path / "o")
+    run_vehicle_shift(cfg, progress=False)
+    md = (tmp_path / "o" / "summary.md").read_text()
+    assert "mine.toml" in md and "| 1: 18.0 t + 22.0 t" in md
+    assert load_config(tmp_path / "o").vehicle_files == (str(f),)
+
+
+def test_a_missing_vehicle_file_is_named(tmp_path: Path) -> None:
+    p = subprocess.run([sys.executable, str(ROOT / "scripts/vehicle_shift.py"), "--controllers", "rule-based",
+                        "--vehicle-files", str(tmp_path / "nope.toml"), "--out", str(tmp_path)],
+                       capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert p.returncode == 2 and "nope.toml" in p.stderr, p.stderr

@@ -106,7 +106,8 @@ def default_config() -> dict[str, Any]:
 
 
 CONFIG_DOCS: dict[str, str] = {
-    "vehicle": "VehicleParams, a dict of VehicleParams field overrides, or None for the spec's DX80/176Y.",
+    "vehicle": "VehicleParams, a dict of VehicleParams field overrides, the path of a TOML vehicle file (the trace "
+               "format's [vehicle] table), or None for the spec's DX80/176Y.",
     "policy_hz": "Agent decisions per second, in [0.5, 1000]; the action is held for physics_hz/policy_hz physics ticks.",
     "physics_hz": "Plant, sensor and estimator rate (Hz), in [100, 5000]; must be an integer multiple of policy_hz.",
     "observer": "What the agent is told about mass and slope: 'dffrls-aekf', any registered estimator name, "

@@ -7,6 +7,7 @@ safety, reward and shaping live in their own modules beside it.)
 
 from __future__ import annotations
 
+import os
 from typing import Any, Mapping
 
 import gymnasium as gym
@@ -30,7 +31,7 @@ from uuom_gym.envs.reward_shaping import potential, shaping_reward
 from uuom_gym.envs.safety import SafetyMonitor, SafetyParams
 from uuom_gym.envs.speed_target import SpeedTracker, ramp_target_mps, station_envelope_mps, target_speed_mps
 from uuom_core.limits import speed_limit_mps
-from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
+from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleFileError, VehicleParams
 
 
 IDLE_ADVANCE_M = 1.0
@@ -604,7 +605,13 @@ def _make_vehicle(spec: Any) -> VehicleParams:
         return spec
     if isinstance(spec, Mapping):
         return DEFAULT_VEHICLE.with_changes(**dict(spec))
-    raise ConfigError(f"config key 'vehicle' must be None, a VehicleParams or a dict of overrides, got {spec!r}")
+    if isinstance(spec, (str, os.PathLike)):  # a vehicle file: JSON-able, so an evaluation's tasks can carry it
+        try:
+            return VehicleParams.from_toml(spec)
+        except VehicleFileError as exc:
+            raise ConfigError(f"config key 'vehicle': {exc}") from None
+    raise ConfigError(f"config key 'vehicle' must be None, a VehicleParams, a dict of overrides or the path of a "
+                      f"TOML vehicle file, got {spec!r}")
 
 
 __all__ = ["InvalidActionError", "ResetNeeded", "UUOMTrackEnv"]

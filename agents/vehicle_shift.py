@@ -90,15 +90,17 @@ def _vehicle_list(config: ShiftConfig) -> list[VehicleParams]:
     return [DEFAULT_VEHICLE] + sister_vehicles(config.vehicle_seed, config.vehicles, config.spread)
 
 
-def shift_tasks(config: ShiftConfig) -> list[tuple[int, Task]]:
-    """``(vehicle index, Task)`` for every controller x vehicle x track (the oracle on every vehicle)."""
+def shift_tasks(config: ShiftConfig, vehicles: list[VehicleParams] | None = None) -> list[tuple[int, Task]]:
+    """``(vehicle index, Task)`` for every controller x vehicle x track (the oracle on every vehicle); ``vehicles``:
+    the study's list when already drawn (:func:`_vehicle_list`)."""
+    vehicles = _vehicle_list(config) if vehicles is None else vehicles
     controllers = list(dict.fromkeys(["oracle", *config.controllers]))
     own_env: dict[str, dict[str, Any]] = {}
     for c in controllers:
         name = split_options(split_shield(c)[0])[0]
         own_env[c] = trained_env_kwargs(Path(name)) if ("/" in name or Path(name).is_dir()) else {}
     tasks = []
-    for k, v in enumerate(_vehicle_list(config)):
+    for k, v in enumerate(vehicles):
         over = vehicle_overrides(v)
         for c in controllers:
             kw = {**own_env[c], **({"vehicle": over} if over else {})}
@@ -113,11 +115,11 @@ def _fmt_vehicle(v: VehicleParams) -> str:
             f"{v.max_traction_n / 1e3:.0f} kN, v_rated {v.max_speed_rated_mps:.2f} m/s, chains {v.chain_length_m:.1f} m")
 
 
-def _per_vehicle_lines(rows: list[dict[str, Any]], vehicles: list[VehicleParams], labels: list[str]) -> str:
+def _per_vehicle_lines(per_vehicle: list[dict[str, dict[str, Any]]], vehicles: list[VehicleParams],
+                       labels: list[str]) -> str:
     head = "| vehicle | " + " | ".join(labels) + " |\n| --- |" + " --- |" * len(labels) + "\n"
     lines = []
-    for k, v in enumerate(vehicles):
-        by_label = {s["controller"]: s for s in summarise([r for r in rows if r["vehicle"] == k])}
+    for k, (v, by_label) in enumerate(zip(vehicles, per_vehicle)):
         cells = []
         for lab in labels:
             s = by_label.get(lab)
@@ -133,24 +135,23 @@ def _per_vehicle_lines(rows: list[dict[str, Any]], vehicles: list[VehicleParams]
     return head + "\n".join(lines) + "\n"
 
 
-def plot_vehicle_shift(rows: list[dict[str, Any]], n_vehicles: int, path: Path) -> None:
+def plot_vehicle_shift(per_vehicle: list[dict[str, dict[str, Any]]], labels: list[str], path: Path) -> None:
     """Per vehicle (x; 0 the project's): each controller's trip time / oracle (IQM, top) and its cost rate and
-    overspeed trips (bottom; a trip marked by its count)."""
+    overspeed trips (bottom; a trip marked by its count). ``per_vehicle[k]``: vehicle k's summary rows by label."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    labels = [c for c in dict.fromkeys(r["controller"] for r in rows) if c != "oracle"]
+    labels = [c for c in labels if c != "oracle"]
+    n_vehicles = len(per_vehicle)
     fig, (ax_t, ax_c) = plt.subplots(2, 1, figsize=(9, 6.4), sharex=True)
     x = np.arange(n_vehicles)
     for j, lab in enumerate(labels):
-        iqm, cost, trips = [], [], []
-        for k in range(n_vehicles):
-            s = [r for r in summarise([r for r in rows if r["vehicle"] == k]) if r["controller"] == lab]
-            iqm.append(s[0]["trip_time_iqm"] if s else np.nan)
-            cost.append(s[0]["cost_rate"] if s else np.nan)
-            trips.append(s[0]["overspeed_trips"] if s else 0)
+        rows = [by_label.get(lab) for by_label in per_vehicle]
+        iqm = [r["trip_time_iqm"] if r else np.nan for r in rows]
+        cost = [r["cost_rate"] if r else np.nan for r in rows]
+        trips = [r["overspeed_trips"] if r else 0 for r in rows]
         off = (j - (len(labels) - 1) / 2) * 0.08
         line = ax_t.plot(x + off, iqm, "o-", ms=4, lw=1, label=lab)[0]
         ax_c.semilogy(x + off, np.maximum(cost, 1e-9), "o-", ms=4, lw=1, color=line.get_color())
@@ -176,7 +177,7 @@ def plot_vehicle_shift(rows: list[dict[str, Any]], n_vehicles: int, path: Path) 
 def run_vehicle_shift(config: ShiftConfig, progress: bool = True) -> dict[str, list[dict[str, Any]]]:
     """Run the study; write its files to ``config.out`` (:func:`report_vehicle_shift`); return its summaries."""
     vehicles = _vehicle_list(config)
-    pairs = shift_tasks(config)
+    pairs = shift_tasks(config, vehicles)
     t0 = time.time()
     raw = run_tasks([t for _, t in pairs], config.workers, progress=progress)
     wall = time.time() - t0
@@ -211,7 +212,10 @@ def load_config(out: Path) -> ShiftConfig:
     FileNotFoundError
         ``out`` holds no ``run.json``.
     """
-    run = json.loads((Path(out) / "run.json").read_text())
+    return _config_from(json.loads((Path(out) / "run.json").read_text()), Path(out))
+
+
+def _config_from(run: dict[str, Any], out: Path) -> ShiftConfig:
     c = run["config"]
     return ShiftConfig(controllers=tuple(c["controllers"]), observer=c["observer"], vehicles=c["vehicles"],
                        spread=c["spread"], vehicle_seed=c["vehicle_seed"], episodes=c["episodes"],
@@ -229,14 +233,16 @@ def report_vehicle_shift(out: Path, progress: bool = True) -> dict[str, list[dic
     FileNotFoundError
         ``out`` holds no finished run.
     """
-    config = load_config(out)
-    out = Path(config.out)
+    out = Path(out)
+    run = json.loads((out / "run.json").read_text())
+    config = _config_from(run, out)
     rows = read_episodes(out / "episodes.csv")
     vehicles = [VehicleParams(**{**dataclasses.asdict(DEFAULT_VEHICLE), **v["vehicle"]})
                 for v in json.loads((out / "vehicles.json").read_text())]
-    run = json.loads((out / "run.json").read_text())
     pooled = pool_rows(rows, config.pools) if config.pools else rows
-    project = summarise([r for r in pooled if r["vehicle"] == 0])
+    per_vehicle = [{r["controller"]: r for r in summarise([x for x in pooled if x["vehicle"] == k])}
+                   for k in range(len(vehicles))]
+    project = list(per_vehicle[0].values())
     sisters = summarise([r for r in pooled if r["vehicle"] > 0])
     labels = list(dict.fromkeys(r["controller"] for r in pooled))
     episodes = len({r["track_seed"] for r in rows})
@@ -253,13 +259,13 @@ def report_vehicle_shift(out: Path, progress: bool = True) -> dict[str, list[dic
           "bootstrap).\n\n## The project's vehicle\n\n" + markdown_table(project) + "\n" + markdown_ci_table(project)
           + "\n## The sister vehicles, pooled\n\n" + markdown_table(sisters) + "\n" + markdown_ci_table(sisters)
           + "\n## Per vehicle (arrived, overspeed trips, trip time / oracle IQM)\n\n"
-          + _per_vehicle_lines(pooled, vehicles, labels)
+          + _per_vehicle_lines(per_vehicle, vehicles, labels)
           + "\nThe vehicles' fields: `vehicles.json` (env `vehicle` overrides; index 0 is the project's). "
           "Figure: `vehicle_shift.png`.\n")
     (out / "summary.md").write_text(md)
     write_csv(out / "summary_vehicles.csv", [{**r, "vehicles": "project"} for r in project]
               + [{**r, "vehicles": "sisters"} for r in sisters])
-    plot_vehicle_shift(pooled, len(vehicles), out / "vehicle_shift.png")
+    plot_vehicle_shift(per_vehicle, labels, out / "vehicle_shift.png")
     if progress:
         print(md)
     return {"project": project, "sisters": sisters}

@@ -35,7 +35,8 @@ def _json_object(text: str) -> dict[str, Any]:
     return value
 
 
-def _pool(text: str) -> tuple[str, list[str]]:
+def parse_pool(text: str) -> tuple[str, list[str]]:
+    """``--pool LABEL=CTRL,CTRL,...`` as ``(label, controllers)`` (argparse type; shared by the scripts)."""
     label, sep, members = text.partition("=")
     names = [m for m in members.split(",") if m]
     if not sep or not label.strip() or len(names) < 2:
@@ -177,7 +178,7 @@ def evaluate_parser() -> argparse.ArgumentParser:
     ap.add_argument("--merge", nargs="+", type=Path, default=None, metavar="DIR",
                     help="build the table and the bar chart from the episodes.csv of earlier --out directories "
                     "(no new episodes, except the one recorded episode per controller for the speed plot)")
-    ap.add_argument("--pool", action="append", type=_pool, default=None, metavar="LABEL=CTRL,CTRL,...",
+    ap.add_argument("--pool", action="append", type=parse_pool, default=None, metavar="LABEL=CTRL,CTRL,...",
                     help="with --merge: show these controllers (e.g. the run directories of several training seeds) "
                     "as one row LABEL; its trip-time interval resamples the seeds and the tracks (repeatable)")
     ap.add_argument("--quiet", action="store_true")
@@ -264,5 +265,5 @@ def tune_main(argv: list[str] | None = None) -> int:
     return 0
 
 
-__all__ = ["evaluate_main", "evaluate_parser", "train_config", "train_main", "train_parser", "tune_main",
+__all__ = ["evaluate_main", "evaluate_parser", "parse_pool", "train_config", "train_main", "train_parser", "tune_main",
            "tune_parser"]

@@ -19,15 +19,8 @@ import shlex
 import sys
 from pathlib import Path
 
+from agents.cli import parse_pool
 from agents.evaluation import DEFAULT_SEED_BASE
-
-
-def _pool(text: str) -> tuple[str, list[str]]:
-    label, sep, members = text.partition("=")
-    names = [m for m in members.split(",") if m]
-    if not sep or not label or len(names) < 2:
-        raise argparse.ArgumentTypeError(f"must be LABEL=CTRL,CTRL[,...] (two or more controllers), got {text!r}")
-    return label, names
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -42,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="drive on these vehicle files instead of drawn sister vehicles")
     ap.add_argument("--episodes", type=int, default=20, help="tracks per vehicle")
     ap.add_argument("--seed-base", type=int, default=DEFAULT_SEED_BASE)
-    ap.add_argument("--pool", type=_pool, action="append", default=[], metavar="LABEL=CTRL,CTRL,...")
+    ap.add_argument("--pool", type=parse_pool, action="append", default=[], metavar="LABEL=CTRL,CTRL,...")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("results/agents/vehicle_shift"))
     ap.add_argument("--report-only", action="store_true",

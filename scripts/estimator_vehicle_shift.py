@@ -25,7 +25,7 @@ import shlex
 import sys
 from pathlib import Path
 
-import numpy as np
+from estimators.metrics import distribution
 
 
 def _score(job: tuple[int, int, str, float, int, tuple[str, ...]]) -> list[tuple[int, str, str, float, float]]:
@@ -48,8 +48,8 @@ def _score(job: tuple[int, int, str, float, int, tuple[str, ...]]) -> list[tuple
 
 
 def _stats(x: list[float]) -> str:
-    a = np.asarray(x, dtype=float)
-    return " / ".join(f"{np.nanpercentile(a, q):.2f}" for q in (50, 90, 95))
+    d = distribution(x)  # the protocol's statistics (nearest rank), so the rows compare with its tables
+    return f"{d['median']:.2f} / {d['p90']:.2f} / {d['p95']:.2f}"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -102,8 +102,8 @@ def main(argv: list[str] | None = None) -> int:
         for name in names:
             parts = []
             for world in ("plant", "point"):
-                x = np.array([r[3] for r in rows if r[0] == k and r[1] == world and r[2] == name])
-                parts.append(f"{np.median(x):.1f} / {np.percentile(x, 95):.1f}")
+                d = distribution(r[3] for r in rows if r[0] == k and r[1] == world and r[2] == name)
+                parts.append(f"{d['median']:.1f} / {d['p95']:.1f}")
             cells.append(" · ".join(parts))
         per.append(f"| {desc} | " + " | ".join(cells) + " |")
     text = "\n".join(lines + per) + "\n"

@@ -42,10 +42,11 @@ DEFAULT_SEED_BASE = 100_000
 """Held-out tracks: training uses seeds near 0 and its EvalCallback near 1 000 000."""
 
 EVALUATION_SIDE_KEYS = frozenset({"observer", "observer_options", "reward_weights", "shaping_gamma", "render_fps",
-                                  "render_size", "render_window_m"})
+                                  "render_size", "render_window_m", "vehicle_spread"})
 """Env settings an evaluation may set differently from a policy's training without shifting its task: the reward
-and rendering do not change an episode, and the observer (with its options) is what the cross table and the
-sensitivity curves vary on purpose."""
+and rendering do not change an episode, the observer (with its options) is what the cross table and the
+sensitivity curves vary on purpose, and a policy trained on vehicles drawn around the configured one
+(``vehicle_spread``) is judged on fixed vehicles: the configured one, or a study's sister vehicles."""
 
 
 class EvalConfigError(ValueError):

@@ -23,7 +23,7 @@ import gymnasium as gym
 import numpy as np
 
 from agents.control_input import ControlInput, control_input_from_obs, observation_settings
-from agents.controllers.base import force_to_command
+from agents.controllers.base import episode_vehicle, force_to_command
 from agents.grade_check import GradeCrossCheck
 from agents.sliding_window import WindowMax
 from uuom_core.limits import brake_deceleration_mps2, speed_limit_mps
@@ -234,6 +234,7 @@ class ShieldWrapper(gym.Wrapper):
 
     def reset(self, **kwargs: Any):
         obs, info = self.env.reset(**kwargs)
+        self.shield.vehicle = episode_vehicle(self.env, self.shield.vehicle)
         self.shield.reset()
         self._last_obs = np.asarray(obs)
         self._track_length_m = float(self.env.unwrapped.track.length_m)

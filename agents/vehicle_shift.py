@@ -99,6 +99,7 @@ def shift_tasks(config: ShiftConfig, vehicles: list[VehicleParams] | None = None
     for c in controllers:
         name = split_options(split_shield(c)[0])[0]
         own_env[c] = trained_env_kwargs(Path(name)) if ("/" in name or Path(name).is_dir()) else {}
+        own_env[c].pop("vehicle_spread", None)  # trained on drawn vehicles: judged here on the study's fixed ones
     tasks = []
     for k, v in enumerate(vehicles):
         over = vehicle_overrides(v)

@@ -17,7 +17,7 @@ import numpy as np
 from uuom_core.units import G_MPS2
 from uuom_core.vehicle import DEFAULT_VEHICLE, PLAUSIBLE_RANGES, VehicleFileError, VehicleParams
 
-__all__ = ["consistent_vehicle", "sister_vehicles", "vehicle_overrides"]
+__all__ = ["consistent_vehicle", "draw_sister_vehicle", "sister_vehicles", "vehicle_overrides"]
 
 
 def consistent_vehicle(fields: dict[str, Any]) -> VehicleParams:
@@ -62,13 +62,46 @@ def consistent_vehicle(fields: dict[str, Any]) -> VehicleParams:
     return VehicleParams(**kw)
 
 
+def _check_spread(where: str, spread: Any) -> None:
+    if isinstance(spread, bool) or not (isinstance(spread, (int, float)) and math.isfinite(spread) and spread >= 1.0):
+        raise ValueError(f"{where}: spread must be a finite factor >= 1, got {spread!r}")
+
+
+def draw_sister_vehicle(rng: np.random.Generator, spread: float,
+                        base: VehicleParams = DEFAULT_VEHICLE, max_draws: int = 1000) -> VehicleParams:
+    """One vehicle with every field of ``base`` drawn log-uniformly within ×/÷ ``spread`` (integers rounded, clipped
+    to the plausible ranges, then :func:`consistent_vehicle`), from ``rng``; a draw the repair cannot mend is drawn
+    again. A zero field stays zero and draws nothing.
+
+    The env's per-reset vehicle draw (config key ``vehicle_spread``) and :func:`sister_vehicles` are this function;
+    the fields are drawn in declaration order, so one generator state gives one vehicle on every machine.
+
+    Raises
+    ------
+    ValueError
+        ``spread`` below 1 or not finite, or no valid vehicle in ``max_draws`` draws.
+    """
+    _check_spread("draw_sister_vehicle", spread)
+    log_spread = math.log(spread)
+    for _ in range(max_draws):
+        fields: dict[str, Any] = {}
+        for f in dataclasses.fields(VehicleParams):
+            x0 = getattr(base, f.name)
+            lo, hi, _ = PLAUSIBLE_RANGES[f.name]
+            x = min(max(x0 * math.exp(rng.uniform(-log_spread, log_spread)), lo), hi) if x0 else x0
+            fields[f.name] = int(round(x)) if isinstance(x0, int) and not isinstance(x0, bool) else float(x)
+        try:
+            return consistent_vehicle(fields)
+        except VehicleFileError:
+            continue
+    raise ValueError(f"draw_sister_vehicle: no valid vehicle within x/÷ {spread} of the base in {max_draws} draws")
+
+
 def sister_vehicles(seed: int, count: int, spread: float,
                     base: VehicleParams = DEFAULT_VEHICLE) -> list[VehicleParams]:
-    """``count`` vehicles with every field drawn log-uniformly within ×/÷ ``spread`` of ``base`` (integers rounded,
-    clipped to the plausible ranges, then :func:`consistent_vehicle`); a draw the repair cannot mend is drawn again.
+    """``count`` vehicles drawn by :func:`draw_sister_vehicle` from one generator seeded with ``seed``.
 
-    The same ``(seed, count, spread, base)`` gives the same vehicles on every machine (one
-    :class:`numpy.random.Generator`, fields in declaration order).
+    The same ``(seed, count, spread, base)`` gives the same vehicles on every machine.
 
     Raises
     ------
@@ -79,27 +112,9 @@ def sister_vehicles(seed: int, count: int, spread: float,
         raise ValueError(f"sister_vehicles: seed must be an integer >= 0, got {seed!r}")
     if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
         raise ValueError(f"sister_vehicles: count must be an integer >= 0, got {count!r}")
-    if not (isinstance(spread, (int, float)) and math.isfinite(spread) and spread >= 1.0):
-        raise ValueError(f"sister_vehicles: spread must be a finite factor >= 1, got {spread!r}")
+    _check_spread("sister_vehicles", spread)
     rng = np.random.default_rng(seed)
-    log_spread = math.log(spread)
-    out: list[VehicleParams] = []
-    for _ in range(1000 * max(count, 1)):
-        if len(out) == count:
-            break
-        fields: dict[str, Any] = {}
-        for f in dataclasses.fields(VehicleParams):
-            x0 = getattr(base, f.name)
-            lo, hi, _ = PLAUSIBLE_RANGES[f.name]
-            x = min(max(x0 * math.exp(rng.uniform(-log_spread, log_spread)), lo), hi) if x0 else x0
-            fields[f.name] = int(round(x)) if isinstance(x0, int) and not isinstance(x0, bool) else float(x)
-        try:
-            out.append(consistent_vehicle(fields))
-        except VehicleFileError:
-            continue
-    if len(out) < count:  # pragma: no cover - a spread the ranges cannot hold
-        raise ValueError(f"sister_vehicles: no valid vehicle within x/÷ {spread} of the base in 1000 draws")
-    return out
+    return [draw_sister_vehicle(rng, spread, base) for _ in range(count)]
 
 
 def vehicle_overrides(vehicle: VehicleParams, base: VehicleParams = DEFAULT_VEHICLE) -> dict[str, Any]:

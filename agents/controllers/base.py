@@ -68,6 +68,18 @@ def check_settings(fractions: dict[str, float], positive: dict[str, float], non_
                 raise ValueError(f"{name} must be a finite number {text}, got {value!r}")
 
 
+def episode_vehicle(env: Any, current: VehicleParams) -> VehicleParams:
+    """The vehicle a controller or shield built for ``env`` drives this episode: ``env.unwrapped.vehicle`` when the
+    env draws its vehicle per reset (config ``vehicle_spread`` > 1), otherwise ``current`` -- the vehicle it was built
+    with, which a study may set apart from the env's on purpose."""
+    base = getattr(env, "unwrapped", env)
+    config = getattr(base, "config", None)
+    vehicle = getattr(base, "vehicle", None)
+    if isinstance(config, Mapping) and config.get("vehicle_spread", 1.0) > 1.0 and isinstance(vehicle, VehicleParams):
+        return vehicle
+    return current
+
+
 class SpeedController:
     """Base class: ``reset(env, info)`` at the start of an episode, ``act(obs, info) -> ndarray (1,)``."""
 
@@ -82,10 +94,15 @@ class SpeedController:
         self.near_shape = "clip"
 
     def reset(self, env: Any = None, info: Mapping[str, Any] | None = None) -> None:
-        """Start an episode (subclasses read what they may know from the env / the reset info)."""
+        """Start an episode (subclasses read what they may know from the env / the reset info).
+
+        An env that draws its vehicle at every reset (config ``vehicle_spread`` > 1) hands the episode's vehicle
+        file to the controller here, as a monorail's controller reads the file of the train it drives.
+        """
         if env is not None:
             base = getattr(env, "unwrapped", env)
             config = getattr(base, "config", None)
+            self.vehicle = episode_vehicle(base, self.vehicle)
             if self.action_modes is not None and isinstance(config, Mapping) \
                     and config.get("action_mode") not in self.action_modes:
                 raise ValueError(f"controller {self.name!r} acts on action_mode="
@@ -128,4 +145,4 @@ class FullThrottleController(SpeedController):
         return 1.0
 
 
-__all__ = ["FullThrottleController", "STOP_DECEL_MPS2", "SpeedController", "force_to_command"]
+__all__ = ["FullThrottleController", "STOP_DECEL_MPS2", "SpeedController", "episode_vehicle", "force_to_command"]

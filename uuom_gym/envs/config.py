@@ -59,6 +59,7 @@ def default_config() -> dict[str, Any]:
         "speed_tracker": {},
         "accel_demand_mps2": (-0.5, 0.5),
         # --- randomisation per reset(seed) ------------------------------------------------------------------
+        "vehicle_spread": 1.0,
         "load_kg": None,
         "load_fraction_range": (0.0, 1.0),
         "load_fraction_beta": None,
@@ -163,6 +164,11 @@ CONFIG_DOCS: dict[str, str] = {
     "integral_gain_per_s2, integral_clamp_m (uuom_gym.envs.speed_target.SpeedTracker; {} keeps its defaults).",
     "accel_demand_mps2": "action_mode='acceleration' only: (lo, hi) accelerations (m/s^2) that a = -1 and a = +1 "
     "ask for, lo < 0 < hi, piecewise linear with a = 0 asking for 0 (hold the speed; at rest, hold the brake).",
+    "vehicle_spread": "Domain randomisation of the vehicle: a factor >= 1. Above 1, every reset draws a *sister "
+    "vehicle* of the `vehicle` entry from the env's np_random, every field log-uniform within x/÷ this factor "
+    "(uuom_core.vehicle_variants.draw_sister_vehicle), and the plant, the observer, the safety rules, the action "
+    "scaling and the observation scaling all use it for that episode (env.vehicle). 1 (default): the `vehicle` entry "
+    "itself. A training option (docs/rl.md §54): policies trained on one vehicle do not transfer (§53).",
     "load_kg": "Fixed load (kg) instead of a random one; None draws it from load_fraction_range.",
     "load_fraction_range": "(low, high) load as a fraction of the rated load, drawn uniformly.",
     "load_fraction_beta": "None (uniform in load_fraction_range) or (a, b): the fraction is low + (high - low) x "
@@ -378,6 +384,7 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
         raise ConfigError(
             f"config key 'accel_demand_mps2' must be (lo, hi) with lo < 0 < hi, got {cfg['accel_demand_mps2']!r}"
         )
+    _check_number(cfg, "vehicle_spread", 1.0, 3.0)
     if cfg["load_kg"] is not None:
         _check_number(cfg, "load_kg", 0.0, 1e6)
     _check_range(cfg, "load_fraction_range", 0.0, 1.2)

@@ -32,6 +32,7 @@ from uuom_gym.envs.safety import SafetyMonitor, SafetyParams
 from uuom_gym.envs.speed_target import SpeedTracker, ramp_target_mps, station_envelope_mps, target_speed_mps
 from uuom_core.limits import speed_limit_mps
 from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleFileError, VehicleParams
+from uuom_core.vehicle_variants import draw_sister_vehicle
 
 
 IDLE_ADVANCE_M = 1.0
@@ -121,7 +122,8 @@ class UUOMTrackEnv(gym.Env):
     At rest at ``s = 0`` (a level run-in) with service brake released. Each ``reset(seed)`` draws the track
     (length in ``track_length_m``, grades to ``max_grade_deg``, feasible for the load unless
     ``allow_infeasible``), the load (0 to rated; uniform, or Beta-weighted with ``load_fraction_beta``), running resistance, dry/wet adhesion, wheel wear, sensor
-    noise and bias scales. ``scenario`` fixes the paper's runs instead.
+    noise and bias scales; with ``vehicle_spread`` > 1, first the vehicle itself. ``scenario`` fixes the paper's
+    runs instead.
 
     ## Episode End
 
@@ -240,6 +242,11 @@ class UUOMTrackEnv(gym.Env):
     * v0 (rev. 20, no id change, default behaviour unchanged): opt-in config ``load_fraction_uniform_share``: with
       ``load_fraction_beta`` set, that share of the episodes still draws the load uniformly (docs/rl.md §39: the
       Beta(2, 1) draw moved the failures from the heaviest trains to the lightest, which it had made rare).
+    * v0 (rev. 21, no id change, default behaviour unchanged): opt-in config ``vehicle_spread`` > 1 draws a sister
+      vehicle at every reset (every field of the vehicle file within x/÷ the factor, from ``np_random``; the
+      episode's vehicle is ``env.vehicle``, the configured one ``env.base_vehicle``): domain randomisation over the
+      vehicle, because policies trained on one vehicle do not transfer (docs/rl.md §53, §54). 1 (default) draws
+      nothing, so every seed draws the same episode as before.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
@@ -254,30 +261,38 @@ class UUOMTrackEnv(gym.Env):
             )
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=cfg["render_fps"])
-        self.vehicle = _make_vehicle(cfg["vehicle"])
+        self.base_vehicle = _make_vehicle(cfg["vehicle"])
         self.ticks_per_step = int(round(cfg["physics_hz"] / cfg["policy_hz"]))
         self.dt_s = 1.0 / cfg["physics_hz"]
         self.step_s = self.ticks_per_step * self.dt_s
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
-        self._tracker = (
-            SpeedTracker(self.vehicle, self.step_s, **cfg["speed_tracker"])
-            if cfg["action_mode"] in ("speed_target", "acceleration")
-            else None
-        )
         self._cautious_mps = 0.0
         self._target_mps: float | None = None
         self._accel_demand = 0.0
         self.observation_space = observation_space(cfg["idle_clock_observation"])
         self.observation_names = observation_names(cfg["idle_clock_observation"])
-        self.observer = make_observer(cfg["observer"], self.vehicle, cfg["observer_options"],
-                                      fault_free_sensors=cfg["sensor_faults"] is None)
-        self.safety = SafetyMonitor(self.vehicle, SafetyParams.from_config(cfg))
-        self._none_limit = worst_case_speed_limit_mps(self.vehicle)
+        self._use_vehicle(self.base_vehicle)
         self._renderer = None
         self.plant = None
         self.track = None
         self._episode_over = False
         self._end_reason = ""
+
+    def _use_vehicle(self, vehicle: VehicleParams) -> None:
+        """Build everything that reads the vehicle file for ``vehicle`` (at construction, and at a reset that draws a
+        sister vehicle): the speed tracker of the speed-target and acceleration actions, the observer, the safety
+        rules and the no-estimate limit."""
+        cfg = self.config
+        self.vehicle = vehicle
+        self._tracker = (
+            SpeedTracker(vehicle, self.step_s, **cfg["speed_tracker"])
+            if cfg["action_mode"] in ("speed_target", "acceleration")
+            else None
+        )
+        self.observer = make_observer(cfg["observer"], vehicle, cfg["observer_options"],
+                                      fault_free_sensors=cfg["sensor_faults"] is None)
+        self.safety = SafetyMonitor(vehicle, SafetyParams.from_config(cfg))
+        self._none_limit = worst_case_speed_limit_mps(vehicle)
 
     # ------------------------------------------------------------------------------------------------------------
     @staticmethod
@@ -295,6 +310,9 @@ class UUOMTrackEnv(gym.Env):
 
         cfg = self.config
         rng = self.np_random
+        if cfg["vehicle_spread"] > 1.0:
+            # drawn first and only when asked, so that the default's random stream is that of earlier revisions
+            self._use_vehicle(draw_sister_vehicle(rng, cfg["vehicle_spread"], self.base_vehicle))
         cond = pa.draw_conditions(cfg, self.vehicle, rng)
         self.conditions = cond
         self.track = cond.track

@@ -86,7 +86,7 @@ def test_observation_helpers_take_the_longer_vector():
     assert decode_observation(obs[-1], VehicleParams(), 200.0) == decode_observation(obs[-1][:16], VehicleParams(),
                                                                                      200.0)
     with pytest.raises(ValueError, match="16"):
-        observation_by_name(np.zeros(18))
+        observation_by_name(np.zeros(20))
 
 
 def test_a_policy_trained_with_the_clock_names_a_missing_clock(tmp_path):

@@ -126,3 +126,44 @@ def test_the_rule_based_controller_arrives_on_drawn_vehicles() -> None:
         while not (term or trunc):
             obs, _, term, trunc, info = env.step(ctrl.act(obs, info))
         assert info["termination"] == "arrived" and info["episode_cost"] == 0.0
+
+
+# --- the opt-in vehicle entries (config vehicle_observation) -----------------------------------------------------
+def test_the_vehicle_entries_are_what_a_command_does_to_this_train() -> None:
+    from uuom_gym.envs.observation import VEHICLE_OBS_NAMES, observation_by_name
+
+    env = gym.make("UUOM-Track-v0", vehicle_spread=1.5, vehicle_observation=True, observer="oracle")
+    assert env.observation_space.shape == (18,)
+    assert env.unwrapped.observation_names[-2:] == VEHICLE_OBS_NAMES
+    for seed in (0, 1):
+        obs, info = env.reset(seed=seed)
+        v, m = env.unwrapped.vehicle, info["true_mass_kg"]
+        named = observation_by_name(obs)
+        # at rest the torque limit binds: full traction accelerates the train by F_max / m
+        assert named["traction_accel"] * 2.5 == pytest.approx(v.max_traction_n / m, rel=1e-5)
+        assert named["brake_accel"] * 2.5 == pytest.approx(min(v.service_brake_n / m, 10.0), rel=1e-5)
+    plain = gym.make("UUOM-Track-v0", vehicle_spread=1.5, observer="oracle")
+    a, _ = plain.reset(seed=0)
+    b, _ = env.reset(seed=0)
+    assert np.array_equal(a, b[:16])  # appended: the other entries are unchanged
+
+
+def test_the_vehicle_entries_with_the_idle_clock_and_check_env() -> None:
+    from uuom_gym.envs.observation import observation_by_name
+
+    env = gym.make("UUOM-Track-v0", vehicle_observation=True, idle_clock_observation=True)
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (19,) and list(observation_by_name(obs))[-3:] == ["idle_clock", "traction_accel",
+                                                                         "brake_accel"]
+    check_env(env.unwrapped, skip_render_check=True)
+    sb3_check_env(env.unwrapped, warn=False)
+    with pytest.raises(ConfigError, match="vehicle_observation"):
+        gym.make("UUOM-Track-v0", vehicle_observation="yes")
+
+
+def test_the_controllers_read_an_observation_with_the_vehicle_entries() -> None:
+    episodes = []
+    for kw in ({}, {"vehicle_observation": True}):
+        env = gym.make("UUOM-Track-v0", track_length_m=(60.0, 80.0), **kw)
+        episodes.append(_episode(env, 1, steps=200)[0])
+    assert all(np.array_equal(x, y[:16]) for x, y in zip(*episodes))

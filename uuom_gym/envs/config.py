@@ -40,6 +40,7 @@ def default_config() -> dict[str, Any]:
         "observer_options": {},
         "slip_observation": "sensors",
         "idle_clock_observation": False,
+        "vehicle_observation": False,
         "near_distance_observation": "clip",
         # --- task -------------------------------------------------------------------------------------------
         "scenario": None,
@@ -118,6 +119,10 @@ CONFIG_DOCS: dict[str, str] = {
     "slip_observation": "Observation entry 11: 'sensors' (apparent slip velocity from the motor and ground-speed "
     "encoders / 0.5 m/s) or 'estimator' (the observer's estimated slip ratio, e.g. observer='aupf'; falls back to "
     "the sensors when the observer gives none).",
+    "vehicle_observation": "If True, two observation entries after all others (and after idle_clock): "
+    "'traction_accel' and 'brake_accel', the acceleration that a full traction command at the measured speed and a "
+    "full brake command give the train at its estimated mass, / 2.5 m/s^2, in [0, 4]. A command is a fraction of the "
+    "vehicle's force; with vehicle_spread a policy needs them to know what it does (docs/rl.md §54).",
     "idle_clock_observation": "If True, a 17th observation entry 'idle_clock': seconds since the train last got 1 m "
     "further / idle_limit_s (0..1; 0 with idle_limit_s=None). The 'stopped_short' ending is a clock the policy "
     "could not see; with it, the ending is a function of the observation (docs/rl.md §34). Off by default: "
@@ -360,6 +365,8 @@ def make_config(overrides: Mapping[str, Any] | None = None, **kwargs: Any) -> di
     _check_number(cfg, "rollback_trip_m", 0.0, 1e6, open_lo=True)
     if cfg["idle_limit_s"] is not None:
         _check_number(cfg, "idle_limit_s", 0.0, 1e6, open_lo=True)
+    if not isinstance(cfg["vehicle_observation"], bool):
+        raise ConfigError(f"config key 'vehicle_observation' must be True or False, got {cfg['vehicle_observation']!r}")
     if not isinstance(cfg["idle_clock_observation"], bool):
         raise ConfigError(f"config key 'idle_clock_observation' must be True or False, "
                           f"got {cfg['idle_clock_observation']!r}")

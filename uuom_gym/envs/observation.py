@@ -36,6 +36,10 @@ idx  name                     value                                             
 15   ``stop_margin``          (measured speed - sqrt(2 * 0.3 m/s^2 * distance to go)) / v_max     [-2, 2]
 16   ``idle_clock``           opt-in (``idle_clock_observation=True``): seconds since the train    [0, 1]
                               last got 1 m further / ``idle_limit_s``
++0   ``traction_accel``       opt-in (``vehicle_observation=True``, after all the others): what a  [0, 4]
+                              full traction command accelerates the estimated mass by at the
+                              measured speed, min(F_max, P / v) / M / 2.5 m/s^2
++1   ``brake_accel``          the same for a full brake command, F_brake / M / 2.5 m/s^2           [0, 4]
 ===  =======================  ==================================================================  ============
 
 Entries 12-15 (added in v0 rev. 2, see the env's Version History) are functions of the entries above and of the
@@ -97,6 +101,10 @@ OBS_NAMES: tuple[str, ...] = (
 )
 IDLE_CLOCK_NAME = "idle_clock"
 """Name of the opt-in 17th entry (config ``idle_clock_observation``), appended after :data:`OBS_NAMES`."""
+VEHICLE_OBS_NAMES: tuple[str, ...] = ("traction_accel", "brake_accel")
+"""Names of the opt-in vehicle entries (config ``vehicle_observation``), appended last: the acceleration that full
+traction at the measured speed and the full service brake give the estimated train, / ``ACCEL_SCALE_MPS2``."""
+VEHICLE_OBS_HIGH = 4.0
 OBS_LOW = np.array([-2, -4, -1, -0.5, 0, -2, 0, 0, -2, -0.5, -1, -4, -2, 0, -2, -2], dtype=np.float32)
 OBS_HIGH = np.array([2, 4, 1, 1.5, 2, 2, 2, 1.5, 2, 1.5, 1, 4, 2, 1.5, 2, 2], dtype=np.float32)
 _LOW_LIST = [float(x) for x in OBS_LOW]
@@ -125,17 +133,35 @@ GRADE_MF_SMOOTHING = 0.3
 MASS_STD_FLOOR_FRAC = 0.02
 """``cautious_limit`` never believes a mass std below this fraction of the estimate (as agents.shield)."""
 
-def observation_space(idle_clock: bool = False) -> spaces.Box:
-    """The observation space (float32 Box with the bounds of the module table); ``idle_clock`` appends entry 16."""
+def observation_space(idle_clock: bool = False, vehicle: bool = False) -> spaces.Box:
+    """The observation space (float32 Box with the bounds of the module table); ``idle_clock`` appends entry 16,
+    ``vehicle`` then the two :data:`VEHICLE_OBS_NAMES` entries, each in [0, 4]."""
+    low, high = OBS_LOW.copy(), OBS_HIGH.copy()
     if idle_clock:
-        return spaces.Box(low=np.append(OBS_LOW, np.float32(0.0)), high=np.append(OBS_HIGH, np.float32(1.0)),
-                          dtype=np.float32)
-    return spaces.Box(low=OBS_LOW.copy(), high=OBS_HIGH.copy(), dtype=np.float32)
+        low, high = np.append(low, np.float32(0.0)), np.append(high, np.float32(1.0))
+    if vehicle:
+        n = len(VEHICLE_OBS_NAMES)
+        low = np.append(low, np.zeros(n, np.float32))
+        high = np.append(high, np.full(n, VEHICLE_OBS_HIGH, np.float32))
+    return spaces.Box(low=low, high=high, dtype=np.float32)
 
 
-def observation_names(idle_clock: bool = False) -> tuple[str, ...]:
-    """The names of the observation entries, with the opt-in ``idle_clock`` last when it is on."""
-    return OBS_NAMES + ((IDLE_CLOCK_NAME,) if idle_clock else ())
+def observation_names(idle_clock: bool = False, vehicle: bool = False) -> tuple[str, ...]:
+    """The names of the observation entries, with the opt-in ``idle_clock`` and vehicle entries last when on."""
+    return OBS_NAMES + ((IDLE_CLOCK_NAME,) if idle_clock else ()) + (VEHICLE_OBS_NAMES if vehicle else ())
+
+
+def vehicle_entries(vehicle: VehicleParams, mass_kg: float, speed_mps: float) -> list[float]:
+    """The opt-in vehicle entries for a train of ``mass_kg`` at ``speed_mps``: what one unit of the traction command
+    (the drive's torque limit or its power limit at this speed) and of the brake command accelerate it by, over
+    ``ACCEL_SCALE_MPS2``, clipped to [0, 4]. Why: a traction command is a fraction of *this* vehicle's force, and a
+    policy trained on drawn vehicles (config ``vehicle_spread``) cannot tell from the other entries what a command
+    does to this train (docs/rl.md §54)."""
+    m = min(max(mass_kg, vehicle.empty_mass_kg), 10.0 * vehicle.max_mass_kg) if mass_kg == mass_kg \
+        else vehicle.max_mass_kg
+    traction = min(vehicle.max_traction_n, vehicle.motor_power_w / max(abs(speed_mps), 0.05))
+    return [min(traction / m / ACCEL_SCALE_MPS2, VEHICLE_OBS_HIGH),
+            min(vehicle.service_brake_n / m / ACCEL_SCALE_MPS2, VEHICLE_OBS_HIGH)]
 
 
 class ObservationBuilder:
@@ -321,13 +347,13 @@ def decode_observation(
     Raises
     ------
     ValueError
-        If ``obs`` is not ``len(OBS_NAMES)`` finite values (one more with the idle clock), or ``near_shape`` is
-        not one of :data:`NEAR_SHAPES`.
+        If ``obs`` is not ``len(OBS_NAMES)`` finite values (one more with the idle clock, two more with the
+        vehicle entries), or ``near_shape`` is not one of :data:`NEAR_SHAPES`.
     """
     o = np.asarray(obs, dtype=float).reshape(-1)
     if o.shape[0] not in _OBS_SIZES or not np.all(np.isfinite(o)):
-        raise ValueError(f"observation must be {len(OBS_NAMES)} (or, with the idle clock, {len(OBS_NAMES) + 1}) "
-                         f"finite values, got shape {o.shape}")
+        raise ValueError(f"observation must be {' or '.join(map(str, _OBS_SIZES))} finite values ({len(OBS_NAMES)}, "
+                         f"then the opt-in idle clock and vehicle entries), got shape {o.shape}")
     idx = _OBS_INDEX
     grade = math.radians(vehicle.max_grade_deg)
     near = o[idx["distance_to_go_near"]]
@@ -351,7 +377,8 @@ def decode_observation(
 
 
 _OBS_INDEX = {n: i for i, n in enumerate(OBS_NAMES)}
-_OBS_SIZES = (len(OBS_NAMES), len(OBS_NAMES) + 1)
+_OBS_SIZES = tuple(len(OBS_NAMES) + extra for extra in (0, 1, len(VEHICLE_OBS_NAMES), 1 + len(VEHICLE_OBS_NAMES)))
+"""The observation lengths: the 16 entries, with the idle clock, the vehicle entries, or both (appended last)."""
 
 
 def observation_by_name(obs: np.ndarray) -> dict[str, float]:
@@ -360,18 +387,21 @@ def observation_by_name(obs: np.ndarray) -> dict[str, float]:
     Raises
     ------
     ValueError
-        If ``obs`` does not hold ``len(OBS_NAMES)`` values (one more with the idle clock).
+        If ``obs`` does not hold ``len(OBS_NAMES)`` values (one more with the idle clock, two more with the vehicle
+        entries).
     """
     o = np.asarray(obs, dtype=float).reshape(-1)
     if o.shape[0] not in _OBS_SIZES:
-        raise ValueError(f"observation must hold {len(OBS_NAMES)} (or, with the idle clock, {len(OBS_NAMES) + 1}) "
-                         f"values, got shape {np.shape(obs)}")
-    return dict(zip(observation_names(o.shape[0] > len(OBS_NAMES)), o.tolist()))
+        raise ValueError(f"observation must hold {' or '.join(map(str, _OBS_SIZES))} values ({len(OBS_NAMES)}, then "
+                         f"the opt-in idle clock and vehicle entries), got shape {np.shape(obs)}")
+    extra = o.shape[0] - len(OBS_NAMES)
+    return dict(zip(observation_names(extra % 2 == 1, extra >= 2), o.tolist()))
 
 
 __all__ = [
     "DecodedObservation",
     "IDLE_CLOCK_NAME",
+    "VEHICLE_OBS_NAMES",
     "OBS_HIGH",
     "OBS_LOW",
     "OBS_NAMES",

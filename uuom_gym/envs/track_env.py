@@ -23,6 +23,7 @@ from uuom_gym.envs.observation import (
     PriorObserver,
     make_observer,
     observation_names,
+    vehicle_entries,
     observation_space,
     worst_case_speed_limit_mps,
 )
@@ -102,7 +103,9 @@ class UUOMTrackEnv(gym.Env):
     Entries 12-15 are functions of the others and of the previous step's speed, which a memoryless policy
     cannot form (see :mod:`uuom_gym.envs.observation`). With ``idle_clock_observation=True`` (opt-in) a 17th
     entry, ``idle_clock`` in ``[0, 1]``, is the time since the train last got 1 m further over ``idle_limit_s``:
-    how close the ``stopped_short`` ending is. With ``near_distance_observation="tanh"`` (opt-in) entry 10 is
+    how close the ``stopped_short`` ending is. With ``vehicle_observation=True`` (opt-in) two more entries come
+    last, ``traction_accel`` and ``brake_accel``: what a full traction or brake command accelerates the estimated
+    train by (for policies trained on drawn vehicles). With ``near_distance_observation="tanh"`` (opt-in) entry 10 is
     ``tanh(distance / 30 m)`` instead of clipped at +-1, with no corner at 30 m.
 
     ## Rewards
@@ -246,7 +249,8 @@ class UUOMTrackEnv(gym.Env):
       vehicle at every reset (every field of the vehicle file within x/÷ the factor, from ``np_random``; the
       episode's vehicle is ``env.vehicle``, the configured one ``env.base_vehicle``): domain randomisation over the
       vehicle, because policies trained on one vehicle do not transfer (docs/rl.md §53, §54). 1 (default) draws
-      nothing, so every seed draws the same episode as before.
+      nothing, so every seed draws the same episode as before. Opt-in config ``vehicle_observation`` appends
+      ``traction_accel`` and ``brake_accel``: a traction command is a fraction of the episode vehicle's force.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
@@ -269,8 +273,8 @@ class UUOMTrackEnv(gym.Env):
         self._cautious_mps = 0.0
         self._target_mps: float | None = None
         self._accel_demand = 0.0
-        self.observation_space = observation_space(cfg["idle_clock_observation"])
-        self.observation_names = observation_names(cfg["idle_clock_observation"])
+        self.observation_space = observation_space(cfg["idle_clock_observation"], cfg["vehicle_observation"])
+        self.observation_names = observation_names(cfg["idle_clock_observation"], cfg["vehicle_observation"])
         self._use_vehicle(self.base_vehicle)
         self._renderer = None
         self.plant = None
@@ -525,6 +529,8 @@ class UUOMTrackEnv(gym.Env):
             limit = self.config["idle_limit_s"]
             clock = min(max((self.t_s - self._advance_t_s) / limit, 0.0), 1.0) if limit is not None else 0.0
             obs = np.append(obs, np.float32(clock))
+        if self.config["vehicle_observation"]:
+            obs = np.append(obs, np.array(vehicle_entries(self.vehicle, m, self.obs_builder.speed_mps), np.float32))
         return obs
 
     def _info(self, cost, costs, violations, rewards, success, termination) -> dict[str, Any]:

@@ -257,6 +257,13 @@ class MonorailPlant:
             effective_slope_rad=float(np.arcsin(sin_eff / sum(b.mass for b in bodies))),
         )
 
+    @property
+    def wheel_weight_kg(self) -> tuple[float, ...]:
+        """Static weight each carrying wheel bears (kg, wheel order of :attr:`wheels`): half a section each, the hook
+        and payload on the beam's two. The rail's reactions at these contacts are where gravity reaches the track
+        (``scripts/gravity_at_the_wheels.py``)."""
+        return tuple(self._wheel_weight_kg)
+
     def centre_of_mass_speed_mps(self) -> float:
         """Horizontal speed of the centre of mass of all bodies (the momentum: free of the load-sway exchange)."""
         return centre_of_mass_speed_mps(self.space)

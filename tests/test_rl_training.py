@@ -198,3 +198,19 @@ def test_policy_under_the_ceiling_with_the_controllers_own_labeller_arrives():
     assert cfg["demo_bc_weight"] == 100.0 and cfg.get("init_from") is None
     assert cfg["demonstrator_options"] == {} and cfg["action_std_ceiling"] == [0.37, 0.05, 300000]
     assert_arrives(str(run), 100_002)
+
+
+def test_ppo_with_the_bc_term_trains_on_drawn_vehicles_with_the_vehicle_entries(tmp_path):
+    """docs/rl.md §54's recipe in small: each training episode draws its vehicle, the labeller follows it, the
+    policy sees the two vehicle entries; the run records the env settings and its policy drives a fixed vehicle."""
+    kw = {**SHORT, "vehicle_spread": 1.5, "vehicle_observation": True}
+    run = train(TrainConfig(algo="ppo", residual=0.0, shield=False, observer="oracle", timesteps=512, seed=4,
+                            run_dir=tmp_path / "run", eval_freq=0, checkpoint_freq=0, subproc=False, progress=False,
+                            hyperparams=["n_steps=128", "batch_size=64"], demo_bc_weight=100.0, env_kwargs=kw))
+    cfg = json.loads((run / "config.json").read_text())
+    assert cfg["env_kwargs"]["vehicle_spread"] == 1.5 and cfg["demo_bc_weight"] == 100.0
+    policy = ModelPolicy(run)
+    assert policy.obs_shape == (18,)
+    row = run_episode(Task(str(run), "oracle", 100_000, json.dumps({**SHORT, "vehicle_observation": True,
+                                                                     "max_episode_s": 20.0})))
+    assert row["steps"] > 0 and math.isfinite(row["cost"])

@@ -147,3 +147,19 @@ def test_a_missing_vehicle_file_is_named(tmp_path: Path) -> None:
                         "--vehicle-files", str(tmp_path / "nope.toml"), "--out", str(tmp_path)],
                        capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert p.returncode == 2 and "nope.toml" in p.stderr, p.stderr
+
+
+def test_a_policy_trained_on_drawn_vehicles_is_judged_on_the_studys_fixed_ones(tmp_path: Path) -> None:
+    """A run trained with ``vehicle_spread`` keeps its other env settings (here the vehicle entries) and drops the
+    draw: each task's env is the study's vehicle."""
+    run = tmp_path / "dr_run"
+    run.mkdir()
+    (run / "config.json").write_text(json.dumps({"algo": "ppo", "env_kwargs": {"vehicle_spread": 1.5,
+                                                                               "vehicle_observation": True}}))
+    cfg = ShiftConfig(controllers=(str(run),), vehicles=2, spread=1.5, episodes=1, workers=1, out=tmp_path / "o")
+    tasks = [(k, t) for k, t in shift_tasks(cfg) if t.controller == str(run)]
+    assert [k for k, _ in tasks] == [0, 1, 2]
+    for k, t in tasks:
+        kw = json.loads(t.env_kwargs_json)
+        assert "vehicle_spread" not in kw and kw["vehicle_observation"] is True
+        assert ("vehicle" in kw) == (k > 0)

@@ -163,3 +163,15 @@ def test_a_policy_trained_on_drawn_vehicles_is_judged_on_the_studys_fixed_ones(t
         kw = json.loads(t.env_kwargs_json)
         assert "vehicle_spread" not in kw and kw["vehicle_observation"] is True
         assert ("vehicle" in kw) == (k > 0)
+
+
+def test_a_policy_trained_on_drawn_vehicles_trips_the_rated_load_train_of_a_sister_vehicle() -> None:
+    """docs/rl.md §54: the traction recipe trained on drawn vehicles with the vehicle entries still trips a
+    rated-load train (track 100010, 95 % load) on vehicle 6 of the x/÷1.5 study; re-run from the shipped policy."""
+    policy = "ppo_bc_ceiling_dr15_vehobs_traction_s0"
+    want = _committed_episode("vehicle_shift_15_dr", policy, 6, 100010)
+    assert want["termination"] == "overspeed_trip"
+    if want.get("float_path") != float_path_fingerprint():
+        pytest.skip(f"the committed row was written with float32 path {want.get('float_path')}, this machine has "
+                    f"{float_path_fingerprint()}")
+    _same(_rerun("vehicle_shift_15_dr", str(ROOT / "results/rl/policies" / policy), 6, 100010), want)

@@ -23,8 +23,8 @@ from uuom_gym.envs.observation import (
     PriorObserver,
     make_observer,
     observation_names,
-    vehicle_entries,
     observation_space,
+    vehicle_entries,
     worst_case_speed_limit_mps,
 )
 from uuom_gym.envs.reward import reward_terms, traction_energy_j

@@ -41,9 +41,7 @@ def gravity_check(vehicle: VehicleParams, load_kg: float, into_m: float) -> dict
     p0 = sum(b.mass * b.velocity.x for b in bodies)
     log = plant.advance(0.0, 20)
     measured = (sum(b.mass * b.velocity.x for b in bodies) - p0) / (20 * plant.dt_s)
-    x_wheels = [w.position.x for w in plant.wheels]
-    theta_wheels = np.interp(x_wheels, track.x_m, track.slope_rad)
-    at_wheels = -G_MPS2 * float(np.dot(plant.wheel_weight_kg, np.sin(theta_wheels)))
+    at_wheels = -plant.total_mass_kg * G_MPS2 * float(np.sin(plant.wheel_contact_slope_rad()))
     at_centres = -plant.total_mass_kg * G_MPS2 * float(np.sin(log.effective_slope_rad[0]))
     return {"measured": measured, "wheels": at_wheels, "centres": at_centres,
             "under_sensors_deg": float(np.degrees(log.slope_rad[0]))}

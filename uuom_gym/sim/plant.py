@@ -264,6 +264,16 @@ class MonorailPlant:
         (``scripts/gravity_at_the_wheels.py``)."""
         return tuple(self._wheel_weight_kg)
 
+    def wheel_contact_slope_rad(self) -> float:
+        """The slope the train's weight acts on now: ``asin(sum_j W_j sin theta(x_j) / sum_j W_j)`` over the carrying
+        wheels' contacts, ``W_j`` their static weights. Gravity reaches the rail there, so on a vertical curve this,
+        not the log's body-centre ``effective_slope_rad``, gives the along-track gravity force
+        (``scripts/gravity_at_the_wheels.py``, docs/estimation.md)."""
+        x = np.array([w.position.x for w in self.wheels])
+        theta = np.interp(x, self.track.x_m, self.track.slope_rad)
+        w = np.asarray(self._wheel_weight_kg)
+        return float(np.arcsin(np.dot(w, np.sin(theta)) / w.sum()))
+
     def centre_of_mass_speed_mps(self) -> float:
         """Horizontal speed of the centre of mass of all bodies (the momentum: free of the load-sway exchange)."""
         return centre_of_mass_speed_mps(self.space)

@@ -19,32 +19,9 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
-from uuom_core.units import G_MPS2
-from uuom_core.vehicle import DEFAULT_VEHICLE, VehicleParams
+from uuom_core.vehicle import DEFAULT_VEHICLE
 from uuom_core.vehicle_variants import sister_vehicles
-from uuom_gym.sim.plant import MonorailPlant, PlantConfig
-from uuom_gym.sim.track import profile_from_knots
-
-GRADE_START_M = 100.0
-
-
-def gravity_check(vehicle: VehicleParams, load_kg: float, into_m: float) -> dict[str, float]:
-    """Along-track force (N) on the train at rest with its front drive wheel ``into_m`` into a 5° down-grade:
-    measured (momentum rate over 0.1 s), at the wheel contacts and at the bodies' centres (the truth column)."""
-    track = profile_from_knots([(0.0, 0.0), (GRADE_START_M, 0.0), (GRADE_START_M + 0.5, -5.0), (400.0, -5.0)],
-                               "grade entry")
-    start = GRADE_START_M + into_m - vehicle.drive_wheel_base_m / 2.0
-    plant = MonorailPlant(vehicle, track, PlantConfig(load_kg=load_kg, running_resistance=0.0), start_s_m=start)
-    bodies = plant.space.bodies
-    p0 = sum(b.mass * b.velocity.x for b in bodies)
-    log = plant.advance(0.0, 20)
-    measured = (sum(b.mass * b.velocity.x for b in bodies) - p0) / (20 * plant.dt_s)
-    at_wheels = -plant.total_mass_kg * G_MPS2 * float(np.sin(plant.wheel_contact_slope_rad()))
-    at_centres = -plant.total_mass_kg * G_MPS2 * float(np.sin(log.effective_slope_rad[0]))
-    return {"measured": measured, "wheels": at_wheels, "centres": at_centres,
-            "under_sensors_deg": float(np.degrees(log.slope_rad[0]))}
+from uuom_gym.sim.gravity_check import grade_entry_forces
 
 
 def main() -> None:
@@ -56,7 +33,7 @@ def main() -> None:
     for name, v, load in (("project's, 16.0 t", DEFAULT_VEHICLE, 10_000.0),
                           (f"sister 8, {heavy.empty_mass_kg / 1e3:.1f} t", heavy, 20_000.0)):
         for into in (1.0, 3.0, 6.0):
-            r = gravity_check(v, load, into)
+            r = grade_entry_forces(v, load, into)
             print(f"| {name} | {load / 1e3:.0f} t | {into:.0f} m | {r['measured']:.0f} N | {r['wheels']:.0f} N | "
                   f"{r['centres']:.0f} N | {r['under_sensors_deg']:+.2f}° |")
 

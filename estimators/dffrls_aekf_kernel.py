@@ -43,7 +43,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
     EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
-    CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
+    MASS_STD_SCALE, CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
     SMOOTH_L, SMOOTH_NB, ACC_PER_NOISE, F_PREV, NOISE_F, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
     EVID_MIN, DISAGREE, RATE_R, REFERENCE_DT_S, RES_GATE2, RES_PERSIST, RES_SKIP, WIT_THR, WIT_TAU, WIT_HOLD, TH_G,
@@ -750,7 +750,9 @@ def estimate(S, C, out):
         moved = S[MOVED] != 0.0
         th_win = (th + S[HSUM]) / (n_hist + 1.0) if C[N_BUF] > 0.0 and n_hist > 0.0 and moved else th
         out[1] = _gravity_slope(S, C, th, th_win)
-    out[2] = math.sqrt(min(S[PC] * infl, C[P0_C])) * C[M_REF]  # never above the prior
+    # the calibration of the data part (MASS_STD_SCALE, chosen on plant runs) before the cap: what the data have not
+    # told stays the prior's
+    out[2] = math.sqrt(min(S[PC] * infl * C[MASS_STD_SCALE] ** 2, C[P0_C])) * C[M_REF]  # never above the prior
     var_th = S[P22]
     if C[FUSED] != 0.0:
         # + the accelerometer bias (not separable from the resistance, so never learned) + the blend weight

@@ -41,6 +41,7 @@ __all__ = [
     "nis_consistency",
     "settled_mask",
     "settling_time_s",
+    "smallest_covering_scale",
     "train_slope_deg",
 ]
 
@@ -324,6 +325,17 @@ def distribution(values) -> dict[str, float]:
     # nearest rank: a percentile is a value some run actually had (and inf survives)
     q = np.percentile(v, [50, 90, 95], method="inverted_cdf")
     return {"n": int(v.size), "median": float(q[0]), "p90": float(q[1]), "p95": float(q[2]), "max": float(v.max())}
+
+
+def smallest_covering_scale(scales, coverage, target: float = 0.95) -> float | None:
+    """The smallest of ``scales`` (factors on a reported σ) whose ±2σ ``coverage`` (share of samples, 0-1) is still
+    at least ``target``: a σ calibration that is as tight as the data allow and no tighter. None when no scale reaches
+    the target. ``scales`` and ``coverage`` are matched sequences in any order."""
+    pairs = [(float(s), float(c)) for s, c in zip(scales, coverage, strict=True)]
+    if any(not (math.isfinite(s) and s > 0) for s, _ in pairs):
+        raise ValueError(f"scales must be finite and > 0, got {list(scales)!r}")
+    ok = [s for s, c in pairs if c >= target]
+    return min(ok) if ok else None
 
 
 def normalised_error_samples(t_s: np.ndarray, estimate: np.ndarray, std: np.ndarray, truth: np.ndarray,

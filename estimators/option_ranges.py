@@ -117,6 +117,7 @@ OPTION_RANGES: dict[str, tuple[float, float]] = {
     "gyro_witness_persist_s": (1e-3, 1e4),
     "gyro_witness_settle_s": (0.0, 1e4),
     "prob_floor": (0.0, 1.0),
+    "mass_std_scale": (1e-3, 1e3),
     # the adaptive unscented particle filter (aupf)
     "gear_ratio": (1e-3, 1e3),
     "alpha": (1e-4, 10.0),

@@ -334,9 +334,10 @@ class DFFRLSAEKFConfig:
         caps it (a bank's mixture then adds its members' spread). Default 1: the σ as the filter computes it, which is
         wide (±2σ covers the truth on 99-100 % of samples; NEES below its band on 92-96 % of runs). Chosen on plant
         tuning runs 1000-1199 for a 95 % ±2σ coverage, 0.28 (``dffrls-aekf``) and 0.32 (``fused``) give 92 / 90 % and
-        96 / 91 % on the evaluation runs of the plant / point-mass world, the NEES in band on 9 / 13 % and
-        10.5 / 17.5 % of runs instead of 3 / 6.5 % and 3.5 / 5 %, but the σ too narrow on 15-28 % of runs instead of
-        1-2.5 %: the σ ranks the per-run error weakly (Spearman 0.14-0.36), so one factor trades wide runs for narrow ones. Opt-in
+        96 / 92.5 % on the evaluation runs of the plant / point-mass world, the NEES in band on 9 / 13 % and
+        9 / 20.5 % of runs instead of 3 / 6.5 % and 2.5 / 4.5 %, but the σ too narrow on 14.5-25 % of runs instead of
+        1-2.5 %: the σ ranks the per-run error weakly (Spearman 0.15-0.38), so one factor trades wide runs for narrow
+        ones. Opt-in
         (round 2, session 62; ``scripts/std_calibration.py``, ``results/estimation/std_calibration.md``); the env keeps
         1, its controller's σ margin (``k_sigma``) having been chosen with it.
     dt_nominal_s : float

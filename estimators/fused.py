@@ -52,14 +52,19 @@ from .dffrls_aekf import DFFRLSAEKF, DFFRLSAEKFConfig
 __all__ = ["FusedObserver", "FUSED_DEFAULTS"]
 
 FUSED_DEFAULTS = DFFRLSAEKFConfig(fused=True, offset_forgetting_ratio=0.05, train_length_m=14.0,
-                                  max_geometry_ambiguity_rad=0.002, grade_curvature_std=0.0, min_accel_mps2=0.05,
+                                  max_geometry_ambiguity_rad=0.002, min_accel_mps2=0.05,
                                   braking_samples=False, fused_spread_gate=True)
 """The ``fused`` settings: ``dffrls-aekf``'s with a 14 m window and the learned blend, and the offset forgotten 20x
 slower than the dynamic factor asks (so a grade change is explained by the blend, not soaked up by the offset). Chosen on
 plant runs 1000-1015 among offset ratios 0.01-1 and windows 12 / 14 / 18.1 m (12 m: median slope 0.54° but 90th
-percentile 0.91° vs 0.61 / 0.82° with 14 m). No curvature state (``grade_curvature_std=0``; ``dffrls-aekf`` has
-one): with it, plant tuning runs 1000-1099 slope median / p95 0.544 / 1.290 → 0.589 / 1.390°, the point-mass
-scenarios' max mass error over sensor seeds 0-9 12.6 → 14.0 % (session 21). The accelerometer's gravity term in the
+percentile 0.91° vs 0.61 / 0.82° with 14 m). The grade's curvature as a state of the slope layer, as ``dffrls-aekf``
+(``grade_curvature_std`` 0.01) since session 62: without it the slope layer lags every vertical curve and the
+regression, on a sample that accelerates over a crest, reads that lag as mass (point-mass run 180: 26.2 → 8.8 % max
+error after 10 s). Plant tuning runs 1000-1399, mass max error median / p90 / p95 5.79 / 18.83 / 26.53 → 5.64 / 18.47
+/ 24.95 %, slope RMSE median 0.29° both, p95 1.28 → 1.31°; the point-mass runs and scenarios gain too
+(docs/estimation.md, session 62). Session 21 had measured the opposite on an earlier ``fused`` (plant tuning runs
+1000-1099 slope median / p95 0.544 / 1.290 → 0.589 / 1.390°) and left it off. The env keeps it off
+(:data:`uuom_gym.envs.observers.PLANT_GRADE_OPTIONS`). The accelerometer's gravity term in the
 regression (``accel_regressor``) stays off here too: on plant tuning runs 1000-1199 it raised ``fused``'s median mass
 max error 6.6 → 7.4 % (docs/estimation.md, session 20). The mass gate keeps 0.05 m/s² (``dffrls-aekf``'s is 0.03 since
 session 22): on plant tuning runs 1000-1199 0.03 gave median / p90 / p95 mass max error 6.55 / 19.77 / 26.63 →

@@ -72,6 +72,7 @@ VARIANTS: list[tuple[str, str, dict]] = [
     ("fused, its blend learnt on every steady-speed sample (as before session 27)", "fused",
      {"evidence_min_disagreement_rad": 0.0}),
     ("fused without the gyro witness (as before session 55)", "fused", {"gyro_witness_deg": 0.0}),
+    ("fused without the grade curvature state (as before session 62)", "fused", {"grade_curvature_std": 0.0}),
 ]
 
 

@@ -45,11 +45,15 @@ def test_the_witness_is_the_default_and_reads_the_gyro(name: str) -> None:
     assert "gyro_radps" in est.inputs
 
 
-@pytest.mark.parametrize("name, most_with, least_without", [("fused", 1, 3), ("dffrls-aekf", 0, 1)])
-def test_the_witness_recovers_from_the_bias(name: str, most_with: int, least_without: int) -> None:
+# fused's "without" is shown on its two-state slope layer (before session 62): with the curvature state it recovers
+# from this bias on all eight seeds without the witness too, so that slope layer cannot show what the witness does
+@pytest.mark.parametrize("name, most_with, least_without, layer", [
+    ("fused", 0, 3, {"grade_curvature_std": 0.0}), ("dffrls-aekf", 0, 1, {})])
+def test_the_witness_recovers_from_the_bias(name: str, most_with: int, least_without: int, layer: dict) -> None:
     assert _bias_misses(name) <= most_with
+    assert _bias_misses(name, **layer) <= 1
     # the same trace without the witness: the test can fail
-    assert _bias_misses(name, gyro_witness_deg=0.0) >= least_without
+    assert _bias_misses(name, gyro_witness_deg=0.0, **layer) >= least_without
 
 
 @pytest.mark.parametrize("name", ["dffrls-aekf", "fused"])

@@ -49,11 +49,13 @@ _SWING_OPTION_NAMES = frozenset({"chain_length_factors", "chain_length_m", "chai
 
 PLANT_GRADE_OPTIONS: dict[str, dict[str, Any]] = {
     "dffrls-aekf": {"grade_curvature_std": 0.0},
+    "fused": {"grade_curvature_std": 0.0},
 }
-"""What the env gives an observer's grade model unless the observer options say otherwise: ``dffrls-aekf``'s slope
-layer without the curvature state it carries offline. On the plant's tuning runs the curvature state was neutral for
-the mass and 3 % worse for the slope (docs/estimation.md, session 21); the env keeps the settings chosen on its plant
-(and its episodes, and the RL tables computed on them, stay as they were)."""
+"""What the env gives an observer's grade model unless the observer options say otherwise: ``dffrls-aekf``'s and
+``fused``'s slope layer without the curvature state they carry offline. On the plant's tuning runs the curvature state
+was neutral for ``dffrls-aekf``'s mass and 3 % worse for its slope (docs/estimation.md, session 21); ``fused`` took it
+offline in session 62, after the env's observer study had been run with it off. The env keeps the settings its
+episodes were made with (and the RL tables computed on them stay as they were)."""
 
 _GRADE_OPTION_NAMES = frozenset({"grade_curvature_std", "prior_curvature_std_per_m"})
 

@@ -30,12 +30,12 @@ def grade_entry_forces(vehicle: VehicleParams, load_kg: float, into_m: float) ->
                                "grade entry")
     start = GRADE_START_M + into_m - vehicle.drive_wheel_base_m / 2.0
     plant = MonorailPlant(vehicle, track, PlantConfig(load_kg=load_kg, running_resistance=0.0), start_s_m=start)
-    bodies = plant.space.bodies
+    body_mass_kg = sum(b.mass for b in plant.space.bodies)
     weight_n = plant.total_mass_kg * G_MPS2
-    p0 = sum(b.mass * b.velocity.x for b in bodies)
+    v0 = plant.centre_of_mass_speed_mps()
     wheels = -weight_n * math.sin(plant.wheel_contact_slope_rad())
     log = plant.advance(0.0, 20)
-    measured = (sum(b.mass * b.velocity.x for b in bodies) - p0) / (20 * plant.dt_s)
+    measured = body_mass_kg * (plant.centre_of_mass_speed_mps() - v0) / (20 * plant.dt_s)
     return {"measured": measured, "wheels": wheels,
             "centres": -weight_n * math.sin(float(log.effective_slope_rad[0])),
             "under_sensors_deg": math.degrees(float(log.slope_rad[0]))}

@@ -42,7 +42,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
-    EST_SCORE, N_CHAIN, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
+    EST_SCORE, N_CHAIN, WIN_WEAK, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
     MASS_STD_SCALE, CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
     SMOOTH_L, SMOOTH_NB, ACC_PER_NOISE, F_PREV, NOISE_F, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
@@ -428,8 +428,13 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         h1 = h1 + C[MU0] * h2
         h2 = 0.0
     e = y - h1 * c - h2 * dd
-    # a weak sample: below the common gate, above a point-mass filter's own (the only filter with a gate below it)
+    # a weak sample: below the common gate, above a point-mass filter's own gate (WIN_WEAK: or a window member's)
     weak = C[MIN_ACC] <= abs(a_load_f) < C[WEAK_ACC]
+    if not weak and C[WIN_WEAK] > 0.0 and abs(a_load_f) < C[MIN_ACC] and S[SPREAD] < C[WIN_WEAK]:
+        # a window member on a grade uniform over its window: its slope for gravity is the point member's, and so is
+        # the information of a constant-speed sample (without it the bank mixed a learning point member with a
+        # window member frozen at its pull-away value wherever the evidence could not choose)
+        weak = True
     lam = C[DELTA] + (1.0 - C[DELTA]) * math.exp(-C[SIGMA] * abs(e))
     if C[RATE_R] != 1.0:  # the forgetting per second kept at another sample rate
         lam = lam ** C[RATE_R]
@@ -465,7 +470,7 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         return
     gated = residual_gated(S, C, e, h1 * ph1 + h2 * ph2, dt)
     k2 = ph2 / s_m
-    if gated or abs(a_load_f) < C[MIN_ACC]:
+    if gated or (abs(a_load_f) < C[MIN_ACC] and not weak):
         # no acceleration: the mass is only a considered parameter (Schmidt update, zero gain, its variance kept);
         # at constant speed a slope error of the upper layer would otherwise be read as mass
         dd += k2 * e

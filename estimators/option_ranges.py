@@ -101,6 +101,7 @@ OPTION_RANGES: dict[str, tuple[float, float]] = {
     "smooth_speed_mps": (1e-5, 10.0),
     "min_accel_mps2": (0.0, 10.0),
     "point_min_accel_mps2": (0.0, 10.0),
+    "window_weak_spread_rad": (0.0, 1.5),
     "min_traction_fraction": (0.0, 1.0),
     "min_traction_n": (0.0, 1e7),
     "max_slope_spread_rad": (1e-5, math.inf),  # inf: the gate off

@@ -49,6 +49,8 @@ VARIANTS: list[tuple[str, str, dict]] = [
      {"weak_accel_noise_factor": 1.0}),
     ("- the offset forgotten as a random walk on those samples (its covariance scaled, as before session 58)",
      "dffrls-aekf", {"weak_offset_random_walk": False}),
+    ("- a window member's constant-speed samples on a uniform grade used (held, as before session 63)", "dffrls-aekf",
+     {"window_weak_spread_rad": 0.0}),
     ("- measured electric braking used (traction samples only, as before session 23)", "dffrls-aekf",
      {"braking_samples": False}),
     ("- jump gates on the torque and the accelerometer (none, as before session 24)", "dffrls-aekf",

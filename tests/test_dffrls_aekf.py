@@ -229,8 +229,9 @@ def test_chain_bank_finds_the_chains_and_keeps_the_mass(name: str) -> None:
                 assert getattr(est, "members", [est])[0].chain_weights.tolist() == [1.0]
         if chain_m > 2.5:
             # the one pendulum's failure the bank removes (`dffrls-aekf`'s one pendulum: 11.1 % before session 27's
-            # evidence threshold of the geometry bank, 8.4 % with it; the bank's 0.9 -> 1.0 %)
-            assert errors["bank"] < 6.0 and errors["one"] > 8.0 and errors["one"] > 2.0 * errors["bank"]
+            # evidence threshold of the geometry bank, 8.4 % with it, 7.6 % since session 63's window_weak_spread_rad;
+            # the bank's 0.9 -> 1.0 %)
+            assert errors["bank"] < 6.0 and errors["one"] > 7.0 and errors["one"] > 2.0 * errors["bank"]
         else:
             assert errors["bank"] < 4.0
 
@@ -342,7 +343,7 @@ def test_mass_gate_of_session_22(scenario: str) -> None:
 
     bank = estimators.make("dffrls-aekf")
     assert [(m.C[kern.MIN_ACC], m.C[kern.WEAK_ACC], m.C[kern.WEAK_R]) for m in bank.members] == [
-        (0.0, 0.03, 10.0), (0.03, 0.03, 10.0)]  # the window member has no band between the two thresholds
+        (0.0, 0.03, 10.0), (0.03, 0.03, 10.0)]  # the window member's band is its uniform grades (next test)
     assert estimators.make("dffrls-aekf", train_length_m=12.0).single.C[kern.MIN_ACC] == 0.03
     assert estimators.make("dffrls-aekf", train_length_m=0.0, point_min_accel_mps2=None).single.C[kern.MIN_ACC] == 0.03
     assert estimators.make("fused").C[kern.MIN_ACC] == 0.05
@@ -497,3 +498,37 @@ def test_env_tells_its_observers_their_sensors_have_no_faults() -> None:
     assert not gym.make("UUOM-Track-v0", observer="fused").unwrapped.observer.estimator.config.blend_from_start
     stated = gym.make("UUOM-Track-v0", observer="fused", observer_options={"blend_from_start": True})
     assert stated.unwrapped.observer.estimator.config.blend_from_start
+
+
+def test_window_member_learns_at_constant_speed_on_a_uniform_grade() -> None:
+    """Session 63: a window member counts a constant-speed sample as a weak one (10x noisier) while its window's grade
+    spread is under ``window_weak_spread_rad`` (0.001 rad): on a uniform grade its slope for gravity is the point
+    member's. Off, a 12 m filter holds its mass through 50 s of level track at 0.5 m/s (point-mass heavy downhill,
+    protocol sensors, seed 7); on, it keeps learning. Where the bank's evidence cannot choose between its members
+    (uniform grades) it had mixed a learning point member with a frozen window member: on two clean point-mass
+    scenarios (sensor seed 4) the bank's max mass error after 10 s falls by more than half a point. The env's 12 m
+    filter keeps it off."""
+    from estimators.metrics import error_after_settling
+    from uuom_core.vehicle import VehicleParams
+    from uuom_gym.envs.observers import make_observer
+    from uuom_gym.sim.protocol_runs import make_run, protocol_runs
+
+    assert estimators.make("dffrls-aekf").members[1].C[kern.WIN_WEAK] == 0.001
+    assert estimators.make("dffrls-aekf").members[0].C[kern.WIN_WEAK] == 0.0  # the point member has its own band
+    for bad in (-0.1, math.nan, math.inf, True):
+        with pytest.raises(ValueError, match="window_weak_spread_rad"):
+            estimators.make("dffrls-aekf", window_weak_spread_rad=bad)
+    env_est = make_observer("dffrls-aekf", VehicleParams()).estimator
+    assert all(f.C[kern.WIN_WEAK] == 0.0 for f in ([env_est.single] if env_est.single is not None else env_est.members))
+
+    specs = {s.scenario: s for s in protocol_runs(0, 0, paper_seeds=1, fault_seeds=0) if s.world == "point"}
+    tr = make_run(specs["pm-heavy-downhill"].with_sensor_seed(7))
+    level = (tr["t_s"] > 10.0) & (tr["t_s"] < 60.0)
+    off = estimators.make("dffrls-aekf", train_length_m=12.0, window_weak_spread_rad=0.0).run(tr).mass_kg[level]
+    on = estimators.make("dffrls-aekf", train_length_m=12.0).run(tr).mass_kg[level]
+    assert np.ptp(off) < 1e-6 * off[0] and np.ptp(on) > 1e-4 * on[0]  # frozen, and learning (slowly: 10x noisier)
+    for scenario in ("pm-section1", "pm-roadtest"):
+        tr = make_run(specs[scenario].with_sensor_seed(4))
+        err = {w: error_after_settling(tr["t_s"], estimators.make("dffrls-aekf", window_weak_spread_rad=w).run(tr).mass_kg,
+                                       tr["mass_kg"], 10.0, relative=True).max_abs for w in (0.0, 0.001)}
+        assert err[0.001] < err[0.0] - 0.5, (scenario, err)

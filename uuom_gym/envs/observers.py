@@ -60,7 +60,7 @@ episodes were made with (and the RL tables computed on them stay as they were)."
 _GRADE_OPTION_NAMES = frozenset({"grade_curvature_std", "prior_curvature_std_per_m"})
 
 PLANT_MASS_GATE_OPTIONS: dict[str, dict[str, Any]] = {
-    "dffrls-aekf": {"min_accel_mps2": 0.05},
+    "dffrls-aekf": {"min_accel_mps2": 0.05, "window_weak_spread_rad": 0.0},
     "fused": {"fused_spread_gate": False},
 }
 """The acceleration below which ``dffrls-aekf`` in the env holds its mass, unless the observer options say otherwise:
@@ -70,10 +70,12 @@ env's configuration (one 12 m filter, one pendulum, two slope states) 0.03 is ne
 mass max error 10.13 / 33.67 → 10.49 / 33.08 %, docs/estimation.md), so the env keeps its episodes. Likewise
 ``fused`` in the env learns its mass on grade changes as every RL table's ``fused`` rows were computed with; offline
 it holds it there since session 24 (``fused_spread_gate``: neutral on the plant's tuning runs, a gain on the
-point-mass world)."""
+point-mass world). Nor does the env's 12 m ``dffrls-aekf`` count constant-speed samples on a uniform grade as weak ones
+(``window_weak_spread_rad``, offline since round 2, session 63)."""
 
 _MASS_GATE_OPTION_NAMES: dict[str, frozenset[str]] = {
-    "dffrls-aekf": frozenset({"min_accel_mps2", "point_min_accel_mps2", "weak_accel_noise_factor"}),
+    "dffrls-aekf": frozenset({"min_accel_mps2", "point_min_accel_mps2", "weak_accel_noise_factor",
+                              "window_weak_spread_rad"}),
     "fused": frozenset({"fused_spread_gate"}),
 }
 """Options that state the mass gate themselves: given any of them, the plant's entry above is not added (per

@@ -223,6 +223,17 @@ class DFFRLSAEKFConfig:
         above it: 23.99 / 24.12 / 24.21 %): neutral on the plant; the point-mass world's random runs 3.30 / 13.24 →
         3.16 / 11.87 %, 27 of 60 clean scenario runs within both bounds (24) (docs/estimation.md, session 63). The env
         keeps it off (``uuom_gym.envs.observers.PLANT_MASS_GATE_OPTIONS``).
+    slope_var_weight : float
+        (A) The slope layer's grade variance ``P22`` enters the mass regression's per-sample noise as
+        ``k c² g² P22`` (the regressor ``a_L + g sin θ`` carries the grade's error ``g δθ``; ``k`` counts it as
+        correlated over that many samples). A sample read while the slope layer is unsure of the grade — before it has
+        settled, over a crest, after a gap — then teaches the mass less. Default 0 here; 30 in ``fused``
+        (:data:`estimators.fused.FUSED_DEFAULTS`), chosen on plant tuning runs 1000-1399 among 0 / 3 / 10 / 30 / 100 /
+        300 (median / p95 mass max error 5.64 / 24.95, 5.48 / 24.43, 5.42 / 23.62, 5.32 / 20.50, 6.17 / 20.36,
+        9.37 / 24.51 %). The reported σ then inflates only the white share of the noise for correlated samples (the
+        grade's share is counted already). For ``dffrls-aekf`` the same runs gain too (10: 5.49 / 23.90 → 5.07 / 23.52 %; 30: 5.14 /
+        22.48 %), but its evaluation runs do not hold it: two plant runs go to the mass bound (plant-089 2.7 → 53.9 %)
+        and the point-mass world's p95 and clean scenarios lose (docs/estimation.md, session 63).
     braking_samples : bool
         (A) Samples with a measured braking force (drive torque below ``-min_traction_fraction`` of the traction
         limit: the motors braking electrically) update the mass and score the geometry bank like traction samples
@@ -351,7 +362,8 @@ class DFFRLSAEKFConfig:
         96 / 92.5 % on the evaluation runs of the plant / point-mass world, the NEES in band on 9 / 13 % and
         9 / 20.5 % of runs instead of 3 / 6.5 % and 2.5 / 4.5 %, but the σ too narrow on 14.5-25 % of runs instead of
         1-2.5 %: the σ ranks the per-run error weakly (Spearman 0.15-0.38), so one factor trades wide runs for narrow
-        ones. Opt-in
+        ones. Re-chosen in session 63: 0.3 (``dffrls-aekf``) and 0.45 (``fused``, whose σ changed with
+        ``slope_var_weight``). Opt-in
         (round 2, session 62; ``scripts/std_calibration.py``, ``results/estimation/std_calibration.md``); the env keeps
         1, its controller's σ margin (``k_sigma``) having been chosen with it.
     dt_nominal_s : float
@@ -436,6 +448,7 @@ class DFFRLSAEKFConfig:
     weak_accel_noise_factor: float = 10.0
     weak_offset_random_walk: bool = True
     window_weak_spread_rad: float = 0.001
+    slope_var_weight: float = 0.0
     offset_forgetting_ratio: float = 1.0
     fused: bool = False
     accel_bias_std_mps2: float = 0.02
@@ -488,7 +501,8 @@ class DFFRLSAEKFConfig:
                         "grade_curvature_std", "weak_accel_noise_factor", "torque_jump_fraction", "accel_jump_mps2",
                         "jump_noise_factor", "early_blend_kept", "smoothing_lag_s", "accel_std_per_noise",
                         "evidence_min_disagreement_rad", "residual_gate_sigma", "gyro_witness_deg",
-                        "gyro_witness_hold_s", "gyro_witness_settle_s", "window_weak_spread_rad")
+                        "gyro_witness_hold_s", "gyro_witness_settle_s", "window_weak_spread_rad",
+                        "slope_var_weight")
         if self.point_min_accel_mps2 is not None:  # None: the common gate
             non_negative += ("point_min_accel_mps2",)
         for name in positive + non_negative:
@@ -575,6 +589,7 @@ class DFFRLSAEKFConfig:
         C[kern.WEAK_R] = self.weak_accel_noise_factor
         C[kern.WEAK_RW] = float(bool(self.weak_offset_random_walk))
         C[kern.WIN_WEAK] = self.window_weak_spread_rad if length > 0.0 else 0.0
+        C[kern.SLOPE_VAR_W] = self.slope_var_weight
         C[kern.OFF_FORGET] = self.offset_forgetting_ratio
         C[kern.FUSED] = float(bool(self.fused))
         C[kern.ACC_REG] = float(bool(self.accel_regressor and self.use_accel))

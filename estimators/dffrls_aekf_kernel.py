@@ -42,7 +42,7 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
-    EST_SCORE, N_CHAIN, WIN_WEAK, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
+    EST_SCORE, N_CHAIN, WIN_WEAK, SLOPE_VAR_W, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
     MASS_STD_SCALE, CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
     SMOOTH_L, SMOOTH_NB, ACC_PER_NOISE, F_PREV, NOISE_F, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
@@ -411,7 +411,7 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         # and the slope output half the window's lagging average (plant tuning runs 1000-1199: slope RMSE median
         # 0.55 -> 0.29 deg; point-mass runs 1000-1059 0.38 -> 0.14 deg; docs/estimation.md, session 25)
         learn_b = S[MOVED] != 0.0 and (C[BLEND_EARLY] != 0.0 or window_measured)
-        _fused_mass_step(S, C, y, a_load_f, sin_lp, sin_loc_lp, use_rate, learn_b, dt)
+        _fused_mass_step(S, C, y, a_load_f, sin_lp, sin_loc_lp, use_rate, learn_b, dt, p22)
         return
 
     # ---------------- mass layer: DFFRLS on the specific-force regression ----------------------------------------
@@ -464,7 +464,8 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
     ph1 = pc * h1 + pcd * h2
     ph2 = pcd * h1 + pd * h2
     # the residual's variance per sample as a white noise's: the same information per second at any rate
-    r_m = C[R_M] / C[RATE_R]
+    # (SLOPE_VAR_W: the grade's variance as regressor noise; 0 in dffrls-aekf, see fused_kernel.fused_mass_step)
+    r_m = (C[R_M] + C[SLOPE_VAR_W] * c * c * g * g * p22) / C[RATE_R]
     s_m = r_m + h1 * ph1 + h2 * ph2
     if use_rate and e * e > 100.0 * s_m:  # a gross outlier that passed the input gates
         return
@@ -743,6 +744,11 @@ def estimate(S, C, out):
     # the regression counts every 5 ms sample as independent, but its low-passed signals are correlated over
     # ~CORR_N samples: the parameter variance is that much too small
     infl = max(1.0, S[RES_VAR] / C[R_M]) * C[CORR_N] * C[RATE_R]  # (the count at the reference rate)
+    if C[SLOPE_VAR_W] > 0.0:
+        # the grade's share of the per-sample noise (SLOPE_VAR_W) is already counted as correlated: only the white
+        # share is inflated
+        x = C[SLOPE_VAR_W] * c * c * G_MPS2 * G_MPS2 * S[P22]
+        infl = (infl * C[R_M] + x * C[RATE_R]) / (C[R_M] + x)
     out[0] = c * C[M_REF]
     if C[SMOOTH_L] == 0.0:
         out[1] = S[TH_TRAIN]

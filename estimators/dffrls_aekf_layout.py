@@ -106,7 +106,9 @@ WIT_SETTLE = 92  # ... and after a (re)lock it follows the grade this long (s) b
 WEAK_RW = 93  # 1: on a weak sample the offset's forgetting adds variance to the offset alone (a random walk)
 MASS_STD_SCALE = 94  # the reported mass sigma's data part (never above the prior) times this (calibration)
 WIN_WEAK = 95  # > 0: a window member's sample below MIN_ACC is a weak one (WEAK_R) while SPREAD is under this (rad)
-CHAIN_SET = 96  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
+SLOPE_VAR_W = 96  # the slope layer's grade variance enters the mass regression's per-sample noise this many times
+#   (as c² g² P22: the regressor's error from the grade, correlated over many samples)
+CHAIN_SET = 97  # member k's settings at CHAIN_SET + CHAIN_SET_W k: chain length, damping, integration step, prior
 #   score (negative log prior weight, nats, relative to the most probable member's)
 CHAIN_SET_W = 4
 MAX_CHAINS = 8

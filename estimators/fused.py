@@ -53,7 +53,7 @@ __all__ = ["FusedObserver", "FUSED_DEFAULTS"]
 
 FUSED_DEFAULTS = DFFRLSAEKFConfig(fused=True, offset_forgetting_ratio=0.05, train_length_m=14.0,
                                   max_geometry_ambiguity_rad=0.002, min_accel_mps2=0.05,
-                                  braking_samples=False, fused_spread_gate=True)
+                                  braking_samples=False, fused_spread_gate=True, slope_var_weight=30.0)
 """The ``fused`` settings: ``dffrls-aekf``'s with a 14 m window and the learned blend, and the offset forgotten 20x
 slower than the dynamic factor asks (so a grade change is explained by the blend, not soaked up by the offset). Chosen on
 plant runs 1000-1015 among offset ratios 0.01-1 and windows 12 / 14 / 18.1 m (12 m: median slope 0.54° but 90th
@@ -77,7 +77,10 @@ the blend, becomes a considered parameter there): plant tuning runs unchanged (m
 1000-1059 median / p90 5.00 / 15.44 → 3.76 / 11.55 %. Since session 55 the gyro witness (``gyro_witness_deg=0.75``):
 the protocol's 435 runs unchanged but one cell (the plant's stuck speed sensor, slope 1.64 → 1.56°), the fault test's
 accelerometer bias recovered on seven noise seeds of eight instead of four (docs/robustness.md); ``dffrls-aekf``'s
-default too."""
+default too. Since session 63 the slope layer's grade variance is part of the mass regression's noise
+(``slope_var_weight=30``): plant tuning runs 1000-1399 median / p90 / p95 5.64 / 18.47 / 24.95 → 5.32 / 15.25 /
+20.50 % (docs/estimation.md, session 63). The env keeps it off
+(:data:`uuom_gym.envs.observers.PLANT_MASS_GATE_OPTIONS`)."""
 
 
 class FusedObserver(DFFRLSAEKF):

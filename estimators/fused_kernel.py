@@ -10,7 +10,7 @@ from uuom_core.vehicle import G_MPS2
 
 from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MAX_AMBIG, MB, MC, MD, MIN_ACC, MU_MAX,
                                  N_MASS, OFF_FORGET, P0_B, P0_C, P0_D, PB, PC, PCB, PCD, PD, PDB, PROJECT_CLAMP, Q_C,
-                                 R_M, RES_VAR, SIGMA, FUSED_SPREAD, MAX_SPREAD, SPREAD, EVID_MIN,
+                                 R_M, SLOPE_VAR_W, RES_VAR, SIGMA, FUSED_SPREAD, MAX_SPREAD, SPREAD, EVID_MIN,
                                  RATE_R, RES_GATE2, RES_PERSIST, RES_SKIP)
 from .numba_shim import njit
 
@@ -35,7 +35,7 @@ def residual_gated(S, C, e, hph, dt):
 
 
 @njit(cache=True)
-def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b, dt):
+def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b, dt, p22_th):
     """Fused observer's regression on three parameters ``[c, o, beta]`` (c = M/M_ref, o = resistance-and-bias
     offset, beta = c alpha, alpha = weight of the slope under the sensors in the slope gravity acts on)::
 
@@ -43,7 +43,8 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b, dt):
 
     Vector forgetting (c and beta: constants of a run; o: the dynamic lambda), c only from accelerations and while
     the blend leaves the slope for gravity certain enough (Schmidt update otherwise), covariance bounded by the
-    prior and repaired to symmetric PD."""
+    prior and repaired to symmetric PD. ``p22_th``: the slope layer's grade variance for this sample
+    (``SLOPE_VAR_W``)."""
     g = G_MPS2
     h1 = a_l + g * sin_win
     h2 = g
@@ -75,7 +76,10 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b, dt):
     q1 = p11 * h1 + p12 * h2 + p13 * h3
     q2 = p12 * h1 + p22 * h2 + p23 * h3
     q3 = p13 * h1 + p23 * h2 + p33 * h3
-    s_m = C[R_M] / C[RATE_R] + h1 * q1 + h2 * q2 + h3 * q3  # per-sample noise: a white noise's (dffrls_aekf_kernel)
+    # per-sample noise: a white noise's (dffrls_aekf_kernel), plus the grade's error in the regressor, c g δθ, counted
+    # SLOPE_VAR_W times (it is correlated over many samples): a sample read while the slope layer is unsure of the
+    # grade, as over a crest or before it has settled, teaches the mass less (session 63)
+    s_m = (C[R_M] + C[SLOPE_VAR_W] * c * c * g * g * p22_th) / C[RATE_R] + h1 * q1 + h2 * q2 + h3 * q3
     if use_rate and e * e > 100.0 * s_m:
         return
     gated = residual_gated(S, C, e, h1 * q1 + h2 * q2 + h3 * q3, dt)

@@ -102,6 +102,7 @@ OPTION_RANGES: dict[str, tuple[float, float]] = {
     "min_accel_mps2": (0.0, 10.0),
     "point_min_accel_mps2": (0.0, 10.0),
     "window_weak_spread_rad": (0.0, 1.5),
+    "slope_var_weight": (0.0, 1e6),
     "min_traction_fraction": (0.0, 1.0),
     "min_traction_n": (0.0, 1e7),
     "max_slope_spread_rad": (1e-5, math.inf),  # inf: the gate off

@@ -75,6 +75,8 @@ VARIANTS: list[tuple[str, str, dict]] = [
      {"evidence_min_disagreement_rad": 0.0}),
     ("fused without the gyro witness (as before session 55)", "fused", {"gyro_witness_deg": 0.0}),
     ("fused without the grade curvature state (as before session 62)", "fused", {"grade_curvature_std": 0.0}),
+    ("fused without the grade's variance in its mass regression's noise (as before session 63)", "fused",
+     {"slope_var_weight": 0.0}),
 ]
 
 

@@ -61,7 +61,7 @@ _GRADE_OPTION_NAMES = frozenset({"grade_curvature_std", "prior_curvature_std_per
 
 PLANT_MASS_GATE_OPTIONS: dict[str, dict[str, Any]] = {
     "dffrls-aekf": {"min_accel_mps2": 0.05, "window_weak_spread_rad": 0.0},
-    "fused": {"fused_spread_gate": False},
+    "fused": {"fused_spread_gate": False, "slope_var_weight": 0.0},
 }
 """The acceleration below which ``dffrls-aekf`` in the env holds its mass, unless the observer options say otherwise:
 0.05 m/s², the value every RL table was computed with. Offline the default is 0.03 since round 2, session 22, with
@@ -71,12 +71,13 @@ mass max error 10.13 / 33.67 → 10.49 / 33.08 %, docs/estimation.md), so the en
 ``fused`` in the env learns its mass on grade changes as every RL table's ``fused`` rows were computed with; offline
 it holds it there since session 24 (``fused_spread_gate``: neutral on the plant's tuning runs, a gain on the
 point-mass world). Nor does the env's 12 m ``dffrls-aekf`` count constant-speed samples on a uniform grade as weak ones
-(``window_weak_spread_rad``, offline since round 2, session 63)."""
+(``window_weak_spread_rad``, offline since round 2, session 63), nor does the env's ``fused`` count the grade's
+variance in its mass regression's noise (``slope_var_weight``, offline since the same session)."""
 
 _MASS_GATE_OPTION_NAMES: dict[str, frozenset[str]] = {
     "dffrls-aekf": frozenset({"min_accel_mps2", "point_min_accel_mps2", "weak_accel_noise_factor",
                               "window_weak_spread_rad"}),
-    "fused": frozenset({"fused_spread_gate"}),
+    "fused": frozenset({"fused_spread_gate", "slope_var_weight"}),
 }
 """Options that state the mass gate themselves: given any of them, the plant's entry above is not added (per
 estimator, so a ``fused`` user's ``min_accel_mps2`` does not turn its spread gate on)."""

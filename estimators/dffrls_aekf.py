@@ -231,9 +231,10 @@ class DFFRLSAEKFConfig:
         (:data:`estimators.fused.FUSED_DEFAULTS`), chosen on plant tuning runs 1000-1399 among 0 / 3 / 10 / 30 / 100 /
         300 (median / p95 mass max error 5.64 / 24.95, 5.48 / 24.43, 5.42 / 23.62, 5.32 / 20.50, 6.17 / 20.36,
         9.37 / 24.51 %). The reported σ then inflates only the white share of the noise for correlated samples (the
-        grade's share is counted already). For ``dffrls-aekf`` the same runs gain too (10: 5.49 / 23.90 → 5.07 / 23.52 %; 30: 5.14 /
-        22.48 %), but its evaluation runs do not hold it: two plant runs go to the mass bound (plant-089 2.7 → 53.9 %)
-        and the point-mass world's p95 and clean scenarios lose (docs/estimation.md, session 63).
+        grade's share is counted already). For ``dffrls-aekf`` the same runs gain too (10: 5.49 / 23.90 → 5.07 /
+        23.52 %; 30: 5.14 / 22.48 %), but its evaluation runs do not hold it: two plant runs go to the mass bound
+        (plant-089 2.7 → 53.9 %) and the point-mass world's p95 and clean scenarios lose (docs/estimation.md,
+        session 63).
     braking_samples : bool
         (A) Samples with a measured braking force (drive torque below ``-min_traction_fraction`` of the traction
         limit: the motors braking electrically) update the mass and score the geometry bank like traction samples

@@ -42,7 +42,8 @@ from .dffrls_aekf_layout import (  # noqa: F401  (the kernel's array layout, re-
     LA1, LA2, LA_OK, LS1, LS2, LS_OK, LC1, LC2, LC_OK, PREV_VF, PREV_VQ, SWAY, SWAY_RATE, T_VALID, T_MISSING,
     ACC_F, A_LOAD, MC, MD, PC, PCD, PD, RES_VAR, LAMBDA, N_MASS, DIST, NEXT_S, HEAD, HSUM, MOVED, TH_TRAIN, SPREAD,
     N_GAPS, TH_WIN, LL1, LL2, LL_OK, MB, PB, PCB, PDB, DIST0, NIS, SCORE, AMBIG, SCORE_EARLY, N_S, N_HIST_MAX, N_EST,
-    EST_SCORE, N_CHAIN, WIN_WEAK, SLOPE_VAR_W, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1, LG_OK, G_SHIFT,
+    EST_SCORE, N_CHAIN, WIN_WEAK, SLOPE_VAR_W, CHAIN_SET, CHAIN_SET_W, MAX_CHAINS, CHAIN_ST, CHAIN_ST_W, ACC_REG, LG1,
+    LG_OK, G_SHIFT,
     MASS_STD_SCALE, CURV_VAR_M, P0_KAP, KAP_MAX, KAP, P13, P23, P33, WEAK_ACC, WEAK_R, BRAKING, STUCK_N, STUCK_ST,
     T_JUMP, F_JUMP, JUMP_NOISE, T_JUMP_ST, F_JUMP_ST, FILL_SPEED, FUSED_SPREAD, BLEND_EARLY, EARLY_KEPT, B_MEASURED,
     SMOOTH_L, SMOOTH_NB, ACC_PER_NOISE, F_PREV, NOISE_F, RING_HEAD, RING_N, RING0, RING_MAX, RING_W, N_H,
@@ -53,6 +54,7 @@ from .fixed_lag_kernel import (
     R_DS, R_DT, R_F12, R_FIN, R_FOK, R_LINK, R_PF, R_PP, R_T, R_XF, R_XP, R_XS, R_Z, smooth_ring,
 )
 from .fused_kernel import fused_mass_step as _fused_mass_step
+from .fused_kernel import grade_noise as _grade_noise
 from .fused_kernel import residual_gated
 from .input_faults import JUMP_STATE, STUCK_STATE, jump_reset, jump_step, stuck_reset, stuck_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
@@ -465,7 +467,7 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
     ph2 = pcd * h1 + pd * h2
     # the residual's variance per sample as a white noise's: the same information per second at any rate
     # (SLOPE_VAR_W: the grade's variance as regressor noise; 0 in dffrls-aekf, see fused_kernel.fused_mass_step)
-    r_m = (C[R_M] + C[SLOPE_VAR_W] * c * c * g * g * p22) / C[RATE_R]
+    r_m = (C[R_M] + _grade_noise(C, c, p22)) / C[RATE_R]
     s_m = r_m + h1 * ph1 + h2 * ph2
     if use_rate and e * e > 100.0 * s_m:  # a gross outlier that passed the input gates
         return
@@ -747,7 +749,7 @@ def estimate(S, C, out):
     if C[SLOPE_VAR_W] > 0.0:
         # the grade's share of the per-sample noise (SLOPE_VAR_W) is already counted as correlated: only the white
         # share is inflated
-        x = C[SLOPE_VAR_W] * c * c * G_MPS2 * G_MPS2 * S[P22]
+        x = _grade_noise(C, c, S[P22])
         infl = (infl * C[R_M] + x * C[RATE_R]) / (C[R_M] + x)
     out[0] = c * C[M_REF]
     if C[SMOOTH_L] == 0.0:

@@ -77,6 +77,8 @@ VARIANTS: list[tuple[str, str, dict]] = [
     ("fused without the grade curvature state (as before session 62)", "fused", {"grade_curvature_std": 0.0}),
     ("fused without the grade's variance in its mass regression's noise (as before session 63)", "fused",
      {"slope_var_weight": 0.0}),
+    ("fused with the mass gate at 0.05 m/s² (as before session 63)", "fused", {"min_accel_mps2": 0.05}),
+    ("fused as before session 63 (both)", "fused", {"slope_var_weight": 0.0, "min_accel_mps2": 0.05}),
 ]
 
 

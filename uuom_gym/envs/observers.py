@@ -61,7 +61,7 @@ _GRADE_OPTION_NAMES = frozenset({"grade_curvature_std", "prior_curvature_std_per
 
 PLANT_MASS_GATE_OPTIONS: dict[str, dict[str, Any]] = {
     "dffrls-aekf": {"min_accel_mps2": 0.05, "window_weak_spread_rad": 0.0},
-    "fused": {"fused_spread_gate": False, "slope_var_weight": 0.0},
+    "fused": {"fused_spread_gate": False, "slope_var_weight": 0.0, "min_accel_mps2": 0.05},
 }
 """The acceleration below which ``dffrls-aekf`` in the env holds its mass, unless the observer options say otherwise:
 0.05 m/s², the value every RL table was computed with. Offline the default is 0.03 since round 2, session 22, with
@@ -72,7 +72,8 @@ mass max error 10.13 / 33.67 → 10.49 / 33.08 %, docs/estimation.md), so the en
 it holds it there since session 24 (``fused_spread_gate``: neutral on the plant's tuning runs, a gain on the
 point-mass world). Nor does the env's 12 m ``dffrls-aekf`` count constant-speed samples on a uniform grade as weak ones
 (``window_weak_spread_rad``, offline since round 2, session 63), nor does the env's ``fused`` count the grade's
-variance in its mass regression's noise (``slope_var_weight``, offline since the same session)."""
+variance in its mass regression's noise (``slope_var_weight``, offline since the same session), and its mass gate
+stays 0.05 m/s² (0.03 offline since that session; given by a user, ``min_accel_mps2`` replaces only itself)."""
 
 _MASS_GATE_OPTION_NAMES: dict[str, frozenset[str]] = {
     "dffrls-aekf": frozenset({"min_accel_mps2", "point_min_accel_mps2", "weak_accel_noise_factor",

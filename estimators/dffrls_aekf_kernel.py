@@ -56,6 +56,7 @@ from .fixed_lag_kernel import (
 from .fused_kernel import fused_mass_step as _fused_mass_step
 from .fused_kernel import grade_noise as _grade_noise
 from .fused_kernel import residual_gated
+from .fused_kernel import sample_noise as _sample_noise
 from .input_faults import JUMP_STATE, STUCK_STATE, jump_reset, jump_step, stuck_reset, stuck_step
 from .numba_shim import HAVE_NUMBA, njit  # noqa: F401  (HAVE_NUMBA re-exported)
 
@@ -430,13 +431,12 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
         h1 = h1 + C[MU0] * h2
         h2 = 0.0
     e = y - h1 * c - h2 * dd
-    # a weak sample: below the common gate, above a point-mass filter's own gate (WIN_WEAK: or a window member's)
-    weak = C[MIN_ACC] <= abs(a_load_f) < C[WEAK_ACC]
-    if not weak and C[WIN_WEAK] > 0.0 and abs(a_load_f) < C[MIN_ACC] and S[SPREAD] < C[WIN_WEAK]:
-        # a window member on a grade uniform over its window: its slope for gravity is the point member's, and so is
-        # the information of a constant-speed sample (without it the bank mixed a learning point member with a
-        # window member frozen at its pull-away value wherever the evidence could not choose)
-        weak = True
+    # a weak sample: below the common gate, above a point-mass filter's own gate; or (WIN_WEAK) a window member's
+    # below the gate on a grade uniform over its window, where its slope for gravity is the point member's and so is
+    # the information of a constant-speed sample (without it the bank mixed a learning point member with a window
+    # member frozen at its pull-away value wherever the evidence could not choose)
+    weak = C[MIN_ACC] <= abs(a_load_f) < C[WEAK_ACC] or (
+        C[WIN_WEAK] > 0.0 and abs(a_load_f) < C[MIN_ACC] and S[SPREAD] < C[WIN_WEAK])
     lam = C[DELTA] + (1.0 - C[DELTA]) * math.exp(-C[SIGMA] * abs(e))
     if C[RATE_R] != 1.0:  # the forgetting per second kept at another sample rate
         lam = lam ** C[RATE_R]
@@ -467,7 +467,7 @@ def _regress(S, H, C, T, z, dt, th, v, p22, f_in, f_ok, use_rate):
     ph2 = pcd * h1 + pd * h2
     # the residual's variance per sample as a white noise's: the same information per second at any rate
     # (SLOPE_VAR_W: the grade's variance as regressor noise; 0 in dffrls-aekf, see fused_kernel.fused_mass_step)
-    r_m = (C[R_M] + _grade_noise(C, c, p22)) / C[RATE_R]
+    r_m = _sample_noise(C, c, p22)
     s_m = r_m + h1 * ph1 + h2 * ph2
     if use_rate and e * e > 100.0 * s_m:  # a gross outlier that passed the input gates
         return

@@ -14,7 +14,7 @@ from .dffrls_aekf_layout import (C_MAX, C_MIN, DELTA, LAMBDA, MASS_FORGET, MAX_A
                                  RATE_R, RES_GATE2, RES_PERSIST, RES_SKIP)
 from .numba_shim import njit
 
-__all__ = ["fused_mass_step", "grade_noise", "residual_gated"]
+__all__ = ["fused_mass_step", "grade_noise", "residual_gated", "sample_noise"]
 
 
 @njit(cache=True)
@@ -39,6 +39,13 @@ def grade_noise(C, c, p22):
     """The grade's error in the mass regression's residual, ``c g δθ``, as per-sample noise at the reference rate:
     ``SLOPE_VAR_W c² g² P22`` (``p22``: the slope layer's grade variance; 0 unless the option is on)."""
     return C[SLOPE_VAR_W] * c * c * G_MPS2 * G_MPS2 * p22
+
+
+@njit(cache=True, inline="always")
+def sample_noise(C, c, p22):
+    """The mass regression's per-sample noise at this sample rate: the residual's white noise ``R_M`` plus
+    :func:`grade_noise`, scaled so that a second carries the same information at any rate."""
+    return (C[R_M] + grade_noise(C, c, p22)) / C[RATE_R]
 
 
 @njit(cache=True)
@@ -86,7 +93,7 @@ def fused_mass_step(S, C, y, a_l, sin_win, sin_loc, use_rate, learn_b, dt, p22_t
     # per-sample noise: a white noise's (dffrls_aekf_kernel), plus the grade's error in the regressor, c g δθ, counted
     # SLOPE_VAR_W times (it is correlated over many samples): a sample read while the slope layer is unsure of the
     # grade, as over a crest or before it has settled, teaches the mass less (session 63)
-    s_m = (C[R_M] + grade_noise(C, c, p22_th)) / C[RATE_R] + h1 * q1 + h2 * q2 + h3 * q3
+    s_m = sample_noise(C, c, p22_th) + h1 * q1 + h2 * q2 + h3 * q3
     if use_rate and e * e > 100.0 * s_m:
         return
     gated = residual_gated(S, C, e, h1 * q1 + h2 * q2 + h3 * q3, dt)

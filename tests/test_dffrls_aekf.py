@@ -219,7 +219,9 @@ def test_chain_bank_finds_the_chains_and_keeps_the_mass(name: str) -> None:
         tr = simulate_point_mass(replace(point_mass_scenario("pm-section1"), chain_length_m=chain_m), seed=0)
         k = tr["t_s"] >= 10.0
         errors = {}
-        for label, options in (("bank", {}), ("one", {"chain_length_factors": ()})):
+        # the one pendulum as measured then, before session 63's window_weak_spread_rad (with it: 7.6 % at 2.8 m)
+        before_63 = {"window_weak_spread_rad": 0.0} if name == "dffrls-aekf" else {}
+        for label, options in (("bank", {}), ("one", {"chain_length_factors": (), **before_63})):
             est = estimators.make(name, **options)
             s = est.run(tr)
             errors[label] = float(np.max(np.abs(s.mass_kg[k] / tr["mass_kg"][k] - 1.0))) * 100.0
@@ -232,9 +234,8 @@ def test_chain_bank_finds_the_chains_and_keeps_the_mass(name: str) -> None:
                 assert getattr(est, "members", [est])[0].chain_weights.tolist() == [1.0]
         if chain_m > 2.5:
             # the one pendulum's failure the bank removes (`dffrls-aekf`'s one pendulum: 11.1 % before session 27's
-            # evidence threshold of the geometry bank, 8.4 % with it, 7.6 % since session 63's window_weak_spread_rad;
-            # the bank's 0.9 -> 1.0 %)
-            assert errors["bank"] < 6.0 and errors["one"] > 7.0 and errors["one"] > 2.0 * errors["bank"]
+            # evidence threshold of the geometry bank, 8.4 % with it; the bank's 0.9 -> 1.0 %)
+            assert errors["bank"] < 6.0 and errors["one"] > 8.0 and errors["one"] > 2.0 * errors["bank"]
         else:
             # fused 5.7 % since session 63's slope_var_weight (2.5 % before; its one pendulum 5.9 %): on this climb the
             # samples it learns from are the ones read while the grade is uncertain (docs/estimation.md, session 63)
